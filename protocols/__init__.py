@@ -1,0 +1,1 @@
+"""Protocol families, one module each: message kinds, behaviours, metrics, oracle checks."""

@@ -1,0 +1,5 @@
+import sys
+
+from swarmactors.cli import main
+
+sys.exit(main())

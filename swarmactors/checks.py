@@ -1,0 +1,42 @@
+"""Checks: oracle verdicts on a finished run.
+
+A check is a function ``fn(result: Result, **params)`` registered in the
+``swarmactors.checks`` entry-point group (``protocols`` registers its
+families' checks). It returns one ``Outcome`` or a list of them. Checks run in
+the runner, over result.json and the trace, never in the world.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from swarmactors.plugins import CHECKS, resolve
+from swarmactors.result import Result
+
+
+@dataclass
+class Outcome:
+    """One check's verdict: the measured value against the bound."""
+
+    name: str
+    passed: bool
+    value: Any = None
+    bound: Any = None
+    detail: str = ""
+    first_tick: int | None = None
+
+
+def run_checks(result: Result, specs: list[dict]) -> list[dict]:
+    """Run the scenario's ``[[checks]]`` on ``result``; an exception fails that check."""
+    outcomes: list[dict] = []
+    for spec in specs:
+        name = spec["use"]
+        params = {k: v for k, v in spec.items() if k != "use"}
+        try:
+            got = resolve(CHECKS, name)(result, **params)
+            for o in got if isinstance(got, list) else [got]:
+                outcomes.append(asdict(o))
+        except Exception as exc:
+            outcomes.append(asdict(Outcome(name, False, detail=f"check raised {exc.__class__.__name__}: {exc}")))
+    return outcomes

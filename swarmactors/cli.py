@@ -1,0 +1,154 @@
+"""The ``swarmactors`` command line.
+
+Exit codes: 0 the run finished and every check passed; 1 a check failed;
+2 bad input (nothing started); 3 the run could not complete (e.g. robots never
+claimed); 130 interrupted by SIGINT (trace and a partial result.json written).
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import logging
+import sys
+from pathlib import Path
+
+from rich.console import Console
+
+from swarmactors import scenario as scenario_mod
+from swarmactors.launcher import new_run_id, run_world, serve_host
+from swarmactors.plots import plot_run
+from swarmactors.plugins import BEHAVIORS, resolve
+from swarmactors.progress import RunProgress, summary_table
+from swarmactors.scenario import ScenarioError
+from transport import Endpoints, Keys
+
+EXIT_OK, EXIT_CHECK, EXIT_INPUT, EXIT_RUNTIME, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+
+
+class UsageError(Exception):
+    pass
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # exit 2 with the message, as for any bad input
+        self.print_usage(sys.stderr)
+        self.exit(EXIT_INPUT, f"{self.prog}: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="swarmactors", description="Robot swarms as asynchronous actors over Eclipse Zenoh.")
+    p.add_argument("-v", "--verbose", action="store_true", help="log at INFO level")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    def scenario_args(sp):
+        sp.add_argument("scenario", help="scenario TOML file")
+        sp.add_argument("--seed", type=int, help="override run.seed")
+        sp.add_argument("--clock", choices=["lockstep", "realtime"], help="override run.clock")
+        sp.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                        help="override any scenario key (repeatable), e.g. radio.loss=0.1 or robots.0.count=50")
+        sp.add_argument("--out", type=Path, help="output directory (default out/<run.name>)")
+        sp.add_argument("--quiet", action="store_true", help="no progress display, no table")
+        sp.add_argument("--json", action="store_true", help="print result.json's summary as JSON on stdout")
+
+    run = sub.add_parser("run", help="run a scenario: world and robots, progress, result.json, trace, plot")
+    scenario_args(run)
+    run.add_argument("--processes", type=int, help="robot host processes K (0 = robots in the world's process)")
+
+    world = sub.add_parser("world", help="run only the world; robot hosts join with `swarmactors robots`")
+    scenario_args(world)
+    world.add_argument("--listen", action="append", default=[], help="Zenoh endpoint to listen on (repeatable)")
+    world.add_argument("--connect", action="append", default=[], help="Zenoh endpoint to connect to (repeatable)")
+    world.add_argument("--mode", choices=["peer", "router"], default="router")
+    world.add_argument("--run-id", default="swarm", help="run id shared with the robot hosts (default: swarm)")
+
+    robots = sub.add_parser("robots", help="run a robot host that joins a world")
+    robots.add_argument("--connect", action="append", required=True, help="the world's Zenoh endpoint")
+    robots.add_argument("--run-id", default="swarm")
+    robots.add_argument("--count", type=int, help="robots to ask for (default: all unclaimed)")
+    robots.add_argument("--mode", choices=["peer", "client"], default="client")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
+                        format="%(levelname)s %(name)s: %(message)s")
+    err = Console(stderr=True, no_color=not sys.stderr.isatty())
+    try:
+        if args.command == "robots":
+            return _robots(args)
+        sc = _load(args)
+    except (ScenarioError, UsageError, ValueError) as exc:
+        err.print(f"[red]error:[/] {exc}", highlight=False, markup=True)
+        return EXIT_INPUT
+    try:
+        return _run(args, sc, err)
+    except (RuntimeError, OSError) as exc:
+        err.print(f"[red]run failed:[/] {exc}", highlight=False)
+        return EXIT_RUNTIME
+
+
+def _load(args) -> dict:
+    overrides = list(args.set)
+    if args.seed is not None:
+        overrides.append(f"run.seed={args.seed}")
+    if args.clock is not None:
+        overrides.append(f'run.clock="{args.clock}"')
+    if getattr(args, "processes", None) is not None:
+        if args.processes < 0:
+            raise UsageError(f"--processes {args.processes}: must be >= 0")
+        overrides.append(f"run.processes={args.processes}")
+    return scenario_mod.load(args.scenario, overrides)
+
+
+def _run(args, sc: dict, err: Console) -> int:
+    out_dir = args.out or Path("out") / sc["run"]["name"]
+    if args.command == "world":
+        endpoints = Endpoints(mode=args.mode, listen=args.listen or ["tcp/0.0.0.0:7447"], connect=args.connect)
+        run_id, local = args.run_id, False
+        Keys(run_id)
+    else:
+        endpoints = Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"])
+        run_id, local = new_run_id(sc["run"]["name"]), True
+    progress = RunProgress(sc["run"]["ticks"], sc["run"]["name"], quiet=args.quiet)
+    with progress:
+        result = asyncio.run(run_world(sc, out_dir, endpoints, run_id, processes=sc["run"]["processes"],
+                                       local_host=local, on_tick=progress.on_tick))
+    field = _plot_field(sc)
+    if result.trace_path is not None or result["robots"]:
+        try:
+            plot_run(result, out_dir / "swarm.png", field)
+        except Exception as exc:  # a plot must never cost the run its result
+            err.print(f"[yellow]plot skipped:[/] {exc}")
+    if args.json:
+        print(json.dumps({k: result.data[k] for k in ("run_id", "ticks", "wall_s", "trace_hash", "world",
+                                                     "metrics", "checks", "interrupted")}))
+    elif not args.quiet:
+        err.print(summary_table(result.data, out_dir))
+    if result["interrupted"]:
+        return EXIT_INTERRUPTED
+    return EXIT_OK if result.passed else EXIT_CHECK
+
+
+def _plot_field(sc: dict) -> str | None:
+    for g in sc["robots"]:
+        for b in g["behaviors"]:
+            field = getattr(resolve(BEHAVIORS, b["use"]), "plot_field", None)
+            if field:
+                return field
+    return None
+
+
+def _robots(args) -> int:
+    if args.count is not None and args.count < 1:
+        raise UsageError(f"--count {args.count}: must be >= 1")
+    Keys(args.run_id)
+    endpoints = Endpoints(mode=args.mode, connect=args.connect)
+    asyncio.run(serve_host(endpoints, args.run_id, args.count))
+    return EXIT_OK
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,326 @@
+"""The robot host: many robot actors in one asyncio loop over one Zenoh session.
+
+A host joins the world (``world/join``), receives its robots (ids assigned by
+the world), and runs them. In lockstep each step is one Zenoh query on
+``up/{host}`` carrying all its robots' outputs of the previous tick; the reply
+carries the next tick's inputs. In realtime the host publishes frames on
+``up/{host}`` the moment its robots send them and handles deliveries as they
+arrive on ``down/{host}``.
+
+A robot whose hook raises is crashed (the error goes to the world and into
+result.json); a robot whose step does not finish within ``watchdog_s`` is
+crashed as ``watchdog``; the other robots carry on.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import inspect
+import logging
+import time
+import traceback
+from typing import Any
+
+import numpy as np
+
+from swarmactors.behavior import Behavior, Context, Frame, Sensed
+from swarmactors.plugins import BEHAVIORS, resolve
+from transport import Keys, Link, MalformedMessage, pack, unpack
+
+log = logging.getLogger(__name__)
+
+
+class Robot:
+    """One robot actor: its behaviours, its context, and what it will send."""
+
+    def __init__(self, descr: dict, seed: int, clock: str):
+        self.id = int(descr["id"])
+        self.ctx = Context(self.id, np.random.default_rng([seed, self.id]), clock)
+        self.ctx._encode = pack
+        self.ctx.pose = np.array(descr["pose"], dtype=float)
+        self.behaviors: list[Behavior] = []
+        for spec in descr.get("behaviors", []):
+            params = {k: v for k, v in spec.items() if k != "use"}
+            cls = resolve(BEHAVIORS, spec["use"])
+            b = cls(**params)
+            if not type(b).name:
+                type(b).name = spec["use"]
+            self.behaviors.append(b)
+        self.started = False
+        self.error: str | None = None
+        self.alive = True
+        self.sent_status: dict[str, Any] = {}
+        self.bad_bodies = 0
+
+    # -- one step --------------------------------------------------------
+    def calls(self, inbox: list, sensed: list[Sensed]) -> list:
+        """The hook calls of one lockstep step, in order: start, frames, timers, tick."""
+        out = []
+        if not self.started:
+            self.started = True
+            out += [(b.on_start, (self.ctx,)) for b in self.behaviors]
+        for src, kind, seq, body, sent in inbox:
+            frame = self.decode(src, kind, seq, body, sent)
+            if frame is not None:
+                out += [(b.on_frame, (self.ctx, frame)) for b in self.behaviors if not b.kinds or kind in b.kinds]
+        out += [(fn, ()) for fn in self.due_timers()]
+        out += [(b.on_tick, (self.ctx, sensed)) for b in self.behaviors]
+        return out
+
+    def decode(self, src, kind, seq, body, sent) -> Frame | None:
+        try:
+            return Frame(src, kind, unpack(body, what="frame body"), seq, sent)
+        except MalformedMessage:
+            self.bad_bodies += 1
+            return None
+
+    def due_timers(self) -> list:
+        timers = self.ctx._timers
+        if not timers:
+            return []
+        due = sorted(t for t in timers if t[0] <= self.ctx.now)
+        self.ctx._timers = [t for t in timers if t[0] > self.ctx.now]
+        return [fn for _, _, fn in due]
+
+    def outputs(self) -> list:
+        """``[id, velocity, frames, status changes, error]`` and reset the outbox."""
+        ctx = self.ctx
+        frames, ctx._outbox = ctx._outbox, []
+        vel, ctx._velocity = ctx._velocity, None
+        changed = {k: v for k, v in ctx._status.items() if self.sent_status.get(k, _MISSING) != v}
+        self.sent_status.update(changed)
+        return [self.id, vel, frames, changed or None, self.error]
+
+    def fail(self, exc: BaseException | str) -> None:
+        if isinstance(exc, BaseException):
+            tb = traceback.extract_tb(exc.__traceback__)
+            where = f" at {tb[-1].filename.rsplit('/', 1)[-1]}:{tb[-1].lineno}" if tb else ""
+            self.error = f"{exc.__class__.__name__}: {exc}{where}"
+        else:
+            self.error = exc
+        self.alive = False
+        log.warning("robot %d crashed: %s", self.id, self.error)
+
+    def report(self) -> dict:
+        rep: dict[str, Any] = {}
+        for b in self.behaviors:
+            try:
+                rep[type(b).name] = b.report()
+            except Exception as exc:  # a broken report must not lose the others
+                rep[type(b).name] = {"report_error": f"{exc.__class__.__name__}: {exc}"}
+        if self.error:
+            rep["_error"] = self.error
+        if self.ctx.logs:
+            rep["_log"] = self.ctx.logs[-50:]
+        if self.bad_bodies:
+            rep["_bad_bodies"] = self.bad_bodies
+        return rep
+
+
+_MISSING = object()
+
+
+def run_calls(robot: Robot, calls: list) -> Any:
+    """Run hook calls until one returns an awaitable; return the rest as a coroutine, or None."""
+    for i, (fn, args) in enumerate(calls):
+        try:
+            result = fn(*args)
+        except Exception as exc:
+            robot.fail(exc)
+            return None
+        if inspect.isawaitable(result):
+            return _finish(robot, result, calls[i + 1 :])
+    return None
+
+
+async def _finish(robot: Robot, first, rest: list) -> None:
+    try:
+        await first
+        for fn, args in rest:
+            result = fn(*args)
+            if inspect.isawaitable(result):
+                await result
+    except asyncio.CancelledError:
+        raise
+    except Exception as exc:
+        robot.fail(exc)
+
+
+def to_sensed(rows: list) -> list[Sensed]:
+    return [Sensed(int(r[0]), np.array(r[1:], dtype=float)) for r in rows]
+
+
+class RobotHost:
+    """Joins the world and runs its robots until the world says stop."""
+
+    def __init__(self, link: Link, keys: Keys, count: int | None = None):
+        self.link = link
+        self.keys = keys
+        self.count = count
+        self.robots: dict[int, Robot] = {}
+        self.name = ""
+        self.run_info: dict = {}
+        self.tick = -1
+
+    async def join(self, timeout: float = 60.0) -> None:
+        req = pack({"count": self.count})
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                reply = await self.link.query(self.keys.join, req, timeout=5.0)
+                break
+            except Exception as exc:
+                if time.monotonic() > deadline:
+                    raise RuntimeError(f"could not join {self.keys.join}: {exc}") from None
+                await asyncio.sleep(0.2)
+        info = unpack(reply, what="join reply")
+        self.name = info["host"]
+        self.run_info = info["run"]
+        for descr in info["robots"]:
+            self._adopt(descr)
+        self.link.declare_token(self.keys.alive(self.name))
+
+    def _adopt(self, descr: dict) -> None:
+        robot = Robot(descr, self.run_info["seed"], self.run_info["clock"])
+        self.robots[robot.id] = robot
+
+    async def run(self) -> None:
+        if not self.name:
+            await self.join()
+        if self.run_info["clock"] == "lockstep":
+            await self._run_lockstep()
+        else:
+            await self._run_realtime()
+
+    # -- inputs common to both clocks -----------------------------------
+    def _take_membership(self, msg: dict) -> None:
+        for rid in msg.get("dead", ()):
+            robot = self.robots.get(rid)
+            if robot is not None:
+                robot.alive = False
+        for descr in msg.get("new", ()):
+            self._adopt(descr)
+
+    def _set_inputs(self, robot: Robot, row: list, now: float, objects: dict) -> None:
+        ctx = robot.ctx
+        ctx.pose = np.array(row[1], dtype=float)
+        ctx.now = now
+        ctx.tick = self.tick
+        ctx.objects = objects
+
+    # -- lockstep --------------------------------------------------------------
+    async def _run_lockstep(self) -> None:
+        uplink = self.keys.up(self.name)
+        timeout = 24 * 3600.0  # the world's watchdog, not this query, bounds a step
+        msg = unpack(await self.link.query(uplink, pack({"h": self.name, "t": -1, "r": []}), timeout=timeout))
+        while not msg.get("stop"):
+            self.tick = msg["t"]
+            out = await self._step_lockstep(msg)
+            msg = unpack(await self.link.query(uplink, pack({"h": self.name, "t": self.tick, "r": out}), timeout=timeout))
+        await self._send_reports(uplink)
+
+    async def _step_lockstep(self, msg: dict) -> list:
+        self._take_membership(msg)
+        now, objects = msg["now"], msg.get("objects", {})
+        pending: dict[asyncio.Task, Robot] = {}
+        stepped: list[Robot] = []
+        for row in msg["in"]:
+            robot = self.robots.get(row[0])
+            if robot is None or not robot.alive:
+                continue
+            self._set_inputs(robot, row, now, objects)
+            rest = run_calls(robot, robot.calls(row[3], to_sensed(row[2])))
+            if rest is not None:
+                pending[asyncio.ensure_future(rest)] = robot
+            stepped.append(robot)
+        if pending:
+            done, late = await asyncio.wait(pending, timeout=self.run_info["watchdog_s"])
+            for task in late:
+                task.cancel()
+                pending[task].fail(f"watchdog: step of tick {self.tick} exceeded {self.run_info['watchdog_s']} s")
+        out = []
+        for robot in stepped:
+            out.append(robot.outputs())
+        return out
+
+    async def _send_reports(self, uplink: str) -> None:
+        reports = {rid: r.report() for rid, r in self.robots.items()}
+        try:
+            await self.link.query(uplink, pack({"h": self.name, "t": self.tick + 1, "r": [], "rep": reports}), timeout=30.0)
+        except Exception as exc:
+            log.warning("final report not acknowledged: %s", exc)
+
+    # -- realtime ----------------------------------------------------------------
+    async def _run_realtime(self) -> None:
+        uplink = self.keys.up(self.name)
+        self._stopped = asyncio.Event()
+        self._tasks: set[asyncio.Task] = set()
+        self.link.subscribe(self.keys.down(self.name), self._on_down)
+        reply = unpack(await self.link.query(uplink, pack({"h": self.name, "t": -1, "r": []}), timeout=30.0))
+        self._epoch = reply.get("epoch", time.time())
+        await self._stopped.wait()
+        for task in list(self._tasks):
+            task.cancel()
+        await self._send_reports(uplink)
+
+    def _rt_now(self) -> float:
+        return time.time() - self._epoch
+
+    def _on_down(self, key: str, payload: bytes) -> None:
+        try:
+            msg = unpack(payload, what="downlink")
+        except MalformedMessage as exc:
+            log.warning("%s", exc)
+            return
+        if msg.get("stop"):
+            self._stopped.set()
+            return
+        touched: list[Robot] = []
+        if "d" in msg:
+            now = self._rt_now()
+            for rid, src, kind, seq, body, sent in msg["d"]:
+                robot = self.robots.get(rid)
+                if robot is None or not robot.alive:
+                    continue
+                frame = robot.decode(src, kind, seq, body, sent)
+                if frame is None:
+                    continue
+                robot.ctx.now = now
+                calls = [(b.on_frame, (robot.ctx, frame)) for b in robot.behaviors if not b.kinds or kind in b.kinds]
+                self._rt_run(robot, calls)
+                touched.append(robot)
+        if "in" in msg:
+            if "epoch" in msg:
+                self._epoch = msg["epoch"]
+            self.tick = msg["t"]
+            self._take_membership(msg)
+            objects = msg.get("objects", {})
+            for row in msg["in"]:
+                robot = self.robots.get(row[0])
+                if robot is None or not robot.alive:
+                    continue
+                self._set_inputs(robot, row, self._rt_now(), objects)
+                self._rt_run(robot, robot.calls([], to_sensed(row[2])))
+                touched.append(robot)
+        self._rt_flush(touched)
+
+    def _rt_run(self, robot: Robot, calls: list) -> None:
+        rest = run_calls(robot, calls)
+        if rest is None:
+            return
+        task = asyncio.ensure_future(asyncio.wait_for(rest, self.run_info["watchdog_s"]))
+        self._tasks.add(task)
+
+        def done(t: asyncio.Task) -> None:
+            self._tasks.discard(t)
+            if not t.cancelled() and isinstance(t.exception(), TimeoutError):
+                robot.fail(f"watchdog: a hook exceeded {self.run_info['watchdog_s']} s")
+            self._rt_flush([robot])
+
+        task.add_done_callback(done)
+
+    def _rt_flush(self, robots: list[Robot]) -> None:
+        rows = [r.outputs() for r in dict.fromkeys(robots)]
+        rows = [row for row in rows if row[1] is not None or row[2] or row[3] or row[4]]
+        if rows:
+            self.link.publish(self.keys.up(self.name), pack({"h": self.name, "t": self.tick, "r": rows}))

@@ -1,0 +1,210 @@
+"""Starting a run: the world, its robot hosts, the trace, the result.
+
+``run`` is the one entry point behind ``swarmactors run`` and the Python API.
+K = 0 host processes (the default) runs the robots inside the world's process
+over the same Zenoh session; K >= 1 spawns K host processes (``spawn`` start
+method, fixed ``PYTHONHASHSEED``; Zenoh's runtime does not survive ``fork``)
+that connect to the world's ephemeral loopback endpoint.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+import multiprocessing
+import os
+import re
+import signal
+import uuid
+from collections.abc import Callable
+from pathlib import Path
+
+from swarmactors.checks import run_checks
+from swarmactors.host import RobotHost
+from swarmactors.result import Result, package_version, to_jsonable
+from swarmactors.scenario import world_spec
+from swarmactors.trace import TraceWriter
+from transport import Endpoints, Keys, Link
+from world import POS_DIGITS, World
+
+log = logging.getLogger(__name__)
+HASH_SEED = "0"
+
+
+def new_run_id(name: str) -> str:
+    stem = re.sub(r"[^A-Za-z0-9_.-]", "-", name)[:40] or "run"
+    return f"{stem}-{uuid.uuid4().hex[:8]}"
+
+
+def split(n: int, k: int) -> list[int]:
+    """Robot counts for k hosts: as even as possible."""
+    return [n // k + (1 if i < n % k else 0) for i in range(k)]
+
+
+def host_process(endpoint: str, run_id: str, count: int | None) -> None:
+    """Entry point of a spawned robot-host process."""
+    logging.basicConfig(level=logging.WARNING)
+    asyncio.run(serve_host(Endpoints(mode="peer", connect=[endpoint]), run_id, count))
+
+
+async def serve_host(endpoints: Endpoints, run_id: str, count: int | None) -> None:
+    """Join run ``run_id`` through ``endpoints`` and run robots until the world stops."""
+    with Link(endpoints) as link:
+        host = RobotHost(link, Keys(run_id), count)
+        await host.join()
+        await host.run()
+
+
+async def run_world(
+    sc: dict,
+    out_dir: Path,
+    endpoints: Endpoints,
+    run_id: str,
+    processes: int = 0,
+    local_host: bool = True,
+    on_tick: Callable[[World], None] | None = None,
+    on_open: Callable[[World, Link], None] | None = None,
+) -> Result:
+    """Run a resolved scenario's world (and, if asked, its hosts) to a Result on disk."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    keys = Keys(run_id)
+    trace_path = out_dir / "trace.msgpack" if sc["run"]["trace"] else None
+    writer = TraceWriter(
+        trace_path,
+        {"run_id": run_id, "clock": sc["run"]["clock"], "seed": sc["run"]["seed"],
+         "pos_digits": POS_DIGITS, "scenario": to_jsonable(sc)},
+    )
+    interrupted = False
+    procs: list[multiprocessing.Process] = []
+    loop = asyncio.get_running_loop()
+    with Link(endpoints, loop) as link:
+        world = World(world_spec(sc), link, keys, sinks=[writer], on_tick=on_tick)
+        world.open()
+        if on_open:
+            on_open(world, link)
+
+        def interrupt() -> None:
+            nonlocal interrupted
+            interrupted = True
+            world.request_stop("interrupted (SIGINT)")
+
+        try:
+            loop.add_signal_handler(signal.SIGINT, interrupt)
+        except (RuntimeError, ValueError):  # not the main thread
+            pass
+        try:
+            n = len(world.robots)
+            k = min(processes, n)
+            if k > 0:
+                endpoint = link.locators()[0]
+                procs = spawn_hosts(endpoint, run_id, split(n, k))
+            async with asyncio.TaskGroup() as tg:
+                tg.create_task(world.run())
+                if k == 0 and local_host:
+                    tg.create_task(_local_host(link, keys))
+        finally:
+            try:
+                loop.remove_signal_handler(signal.SIGINT)
+            except (RuntimeError, ValueError):
+                pass
+            writer.close()
+            for p in procs:
+                await asyncio.to_thread(p.join, 15)
+                if p.is_alive():
+                    p.kill()
+    summary = world.summary()
+    data = assemble(sc, summary, writer, run_id, processes, interrupted)
+    result = write_result(data, out_dir)
+    if not interrupted and sc["checks"]:
+        result.data["checks"] = run_checks(result, sc["checks"])
+        result = write_result(result.data, out_dir)
+    return result
+
+
+async def _local_host(link: Link, keys: Keys) -> None:
+    host = RobotHost(link, keys)
+    await host.join()
+    await host.run()
+
+
+def spawn_hosts(endpoint: str, run_id: str, counts: list[int]) -> list[multiprocessing.Process]:
+    """Start one host process per count, with the ``spawn`` method and a fixed hash seed."""
+    ctx = multiprocessing.get_context("spawn")
+    previous = os.environ.get("PYTHONHASHSEED")
+    os.environ["PYTHONHASHSEED"] = HASH_SEED
+    try:
+        procs = [ctx.Process(target=host_process, args=(endpoint, run_id, c), daemon=True) for c in counts]
+        for p in procs:
+            p.start()
+    finally:
+        if previous is None:
+            os.environ.pop("PYTHONHASHSEED", None)
+        else:
+            os.environ["PYTHONHASHSEED"] = previous
+    return procs
+
+
+def assemble(sc: dict, summary: dict, writer: TraceWriter, run_id: str, processes: int, interrupted: bool) -> dict:
+    """The result.json document (checks are added after it is on disk)."""
+    robots = {}
+    for rid, info in summary["robots"].items():
+        entry = dict(info)
+        rep = summary["reports"].get(rid, {})
+        for name, value in rep.items():
+            if name == "_error":
+                entry["error"] = value
+            elif name == "_log":
+                entry["log"] = value
+            else:
+                entry[name] = value
+        if info["failed"] and info["failed"].get("error") and "error" not in entry:
+            entry["error"] = info["failed"]["error"]
+        robots[rid] = entry
+    return to_jsonable(
+        {
+            "run_id": run_id,
+            "scenario": sc,
+            "seed": sc["run"]["seed"],
+            "clock": sc["run"]["clock"],
+            "processes": processes,
+            "ticks": summary["ticks"],
+            "wall_s": round(summary["wall_s"], 4),
+            "version": package_version(),
+            "trace": writer.path.name if writer.path and not writer.error else None,
+            "trace_hash": writer.trace_hash,
+            "trace_error": writer.error,
+            "interrupted": interrupted,
+            "stop_reason": summary["stop_reason"],
+            "robots": robots,
+            "world": summary["world"],
+            "objects": summary["objects"],
+            "metrics": metrics(sc, summary["reports"]),
+            "checks": [],
+        }
+    )
+
+
+def metrics(sc: dict, reports: dict[int, dict]) -> dict:
+    """Each behaviour class's run-level metrics over every robot's report."""
+    from swarmactors.plugins import BEHAVIORS, resolve
+
+    out = {}
+    names = {b["use"] for g in sc["robots"] for b in g["behaviors"]}
+    for name in sorted(names):
+        cls = resolve(BEHAVIORS, name)
+        key = cls.name or name
+        per_robot = {rid: rep[key] for rid, rep in reports.items() if isinstance(rep.get(key), dict)}
+        try:
+            out[key] = cls.metrics(per_robot)
+        except Exception as exc:
+            out[key] = {"metrics_error": f"{exc.__class__.__name__}: {exc}"}
+    return out
+
+
+def write_result(data: dict, out_dir: Path) -> Result:
+    path = out_dir / "result.json"
+    tmp = path.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(data, indent=1, allow_nan=False))
+    tmp.replace(path)
+    return Result(data, path)

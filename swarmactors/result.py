@@ -1,0 +1,153 @@
+"""result.json: building it, and reading it back with helpers.
+
+Schema (docs/result.md): ``scenario`` (resolved), ``run_id``, ``seed``,
+``clock``, ``processes``, ``ticks``, ``wall_s``, ``version`` {package, commit},
+``trace`` (file name or null), ``trace_hash``, ``trace_error``,
+``interrupted``, ``stop_reason``, ``robots`` (id -> alive, pose, host,
+joined_at, failed, status, frames {sent, received, dropped}, and each
+behaviour's ``report()`` under its name), ``world`` (frames_sent, deliveries,
+dropped by cause, dropped_total, malformed_examples), ``metrics`` (behaviour
+name -> metrics), ``checks`` (list of {name, passed, value, bound, detail,
+first_tick}).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from functools import cached_property
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+from typing import Any
+
+import networkx as nx
+import numpy as np
+
+
+def package_version() -> dict:
+    """The installed package version and, when known, the git commit of the source."""
+    try:
+        ver = version("swarmactors")
+    except PackageNotFoundError:
+        ver = "unknown"
+    commit = None
+    try:
+        here = Path(__file__).resolve().parent
+        out = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True, timeout=5
+        )
+        if out.returncode == 0:
+            commit = out.stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return {"package": ver, "commit": commit}
+
+
+def to_jsonable(obj: Any) -> Any:
+    """Make msgpack-decoded data JSON-safe: int keys to strings, bytes to hex, numpy to lists."""
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, bytes):
+        return obj.hex()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
+    return obj
+
+
+class Result:
+    """A run's result.json with helpers (also what ``swarmactors.run`` returns)."""
+
+    def __init__(self, data: dict, path: Path | None = None):
+        self.data = data
+        self.path = path
+
+    @classmethod
+    def load(cls, path: str | Path) -> Result:
+        path = Path(path)
+        if path.is_dir():
+            path = path / "result.json"
+        return cls(json.loads(path.read_text()), path)
+
+    def __getitem__(self, key: str) -> Any:
+        return self.data[key]
+
+    @property
+    def robots(self) -> dict[int, dict]:
+        return {int(k): v for k, v in self.data["robots"].items()}
+
+    def reports(self, behavior: str) -> dict[int, dict]:
+        """Robot id -> that behaviour's report (robots without it are left out)."""
+        return {rid: r[behavior] for rid, r in self.robots.items() if isinstance(r.get(behavior), dict)}
+
+    @property
+    def checks(self) -> list[dict]:
+        return self.data.get("checks", [])
+
+    @property
+    def passed(self) -> bool:
+        return all(c["passed"] for c in self.checks)
+
+    def check(self, name: str) -> dict:
+        for c in self.checks:
+            if c["name"] == name:
+                return c
+        raise KeyError(f"no check {name!r} in this result (have {[c['name'] for c in self.checks]})")
+
+    @property
+    def trace_path(self) -> Path | None:
+        name = self.data.get("trace")
+        if not name or self.path is None:
+            return None
+        return self.path.parent / name
+
+    @cached_property
+    def trace(self) -> list[dict]:
+        """The tick records of the trace (read once)."""
+        from swarmactors.trace import read_trace
+
+        if self.trace_path is None:
+            raise FileNotFoundError("this run wrote no trace (run.trace = false?)")
+        return read_trace(self.trace_path)[1]
+
+    def record(self, tick: int) -> dict:
+        for rec in self.trace:
+            if rec["t"] == tick:
+                return rec
+        raise KeyError(f"no tick {tick} in the trace")
+
+    def ranges(self) -> dict[int, float]:
+        """Each robot's radio range, from the resolved scenario (groups, then added robots)."""
+        out: dict[int, float] = {}
+        sc = self.data["scenario"]
+        for g in sc["robots"]:
+            for _ in g["positions"]:
+                out[len(out)] = g["range"]
+        for e in sc.get("events", []):
+            for spec in e.get("add", []):
+                out[len(out)] = spec["range"]
+        return out
+
+    def graph_at(self, tick: int, directed: bool = False) -> nx.Graph:
+        """The true radio graph at ``tick`` (alive robots; mutual links unless ``directed``)."""
+        rec = self.record(tick)
+        ranges = self.ranges()
+        ids = [row[0] for row in rec.get("pos", [])]
+        pos = np.array([row[1:] for row in rec.get("pos", [])], dtype=float)
+        g = nx.DiGraph() if directed else nx.Graph()
+        g.add_nodes_from(ids)
+        for a in range(len(ids)):
+            d = np.linalg.norm(pos - pos[a], axis=1)
+            for b in np.flatnonzero(d <= ranges[ids[a]]):
+                if b == a:
+                    continue
+                if directed:
+                    g.add_edge(ids[a], ids[b])
+                elif d[b] <= ranges[ids[b]]:
+                    g.add_edge(ids[a], ids[b])
+        return g

@@ -1,0 +1,412 @@
+"""Scenario files (TOML): loading, overrides, validation, resolution.
+
+Every key is checked before anything starts: an unknown key, a wrong type or an
+out-of-range value raises ``ScenarioError`` naming the file and the key.
+Resolution fills defaults and turns placement rules into explicit positions
+(from the run's seed), so the resolved scenario stored in result.json is a
+complete description of the run.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import networkx as nx
+import numpy as np
+from scipy.spatial import cKDTree
+
+from swarmactors.behavior import check_params
+from swarmactors.plugins import BEHAVIORS, CHECKS, PluginError, resolve
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot run; the message names the file and the key."""
+
+    def __init__(self, source: str, key: str, message: str):
+        super().__init__(f"{source}: {key}: {message}")
+        self.source, self.key = source, key
+
+
+# Each field: (type(s), default, check) where check(value) returns an error text or None.
+def _positive(v):
+    return None if v > 0 else "must be > 0"
+
+
+def _non_negative(v):
+    return None if v >= 0 else "must be >= 0"
+
+
+def _probability(v):
+    return None if 0.0 <= v <= 1.0 else "must be in [0, 1]"
+
+
+def _one_of(*options):
+    return lambda v: None if v in options else f"must be one of {', '.join(map(repr, options))}"
+
+
+_NUM = (int, float)
+REQUIRED = object()
+
+SCHEMA: dict[str, dict[str, tuple]] = {
+    "run": {
+        "name": (str, "run", None),
+        "seed": (int, 0, _non_negative),
+        "clock": (str, "lockstep", _one_of("lockstep", "realtime")),
+        "ticks": (int, None, _positive),
+        "duration": (_NUM, None, _positive),
+        "dt": (_NUM, 1.0, _positive),
+        "watchdog_s": (_NUM, 10.0, _positive),
+        "join_timeout_s": (_NUM, 60.0, _positive),
+        "state_every": (int, 1, _non_negative),
+        "trace": (bool, True, None),
+        "processes": (int, 0, _non_negative),
+    },
+    "radio": {
+        "range": (_NUM, 1.0, _positive),
+        "latency": (int, 1, lambda v: None if v >= 1 else "must be >= 1 tick"),
+        "latency_s": (_NUM, 0.01, _positive),
+        "latency_min_s": (_NUM, None, _non_negative),
+        "loss": (_NUM, 0.0, _probability),
+        "model": (str, "bernoulli", _one_of("bernoulli", "distance")),
+        "delta": (_NUM, 0.1, _positive),
+        "bandwidth": (int, 0, _non_negative),
+    },
+    "world": {
+        "dims": (int, 2, _one_of(2, 3)),
+        "bounds": (list, None, None),
+        "objects": (list, [], None),
+    },
+}
+GROUP: dict[str, tuple] = {
+    "count": (int, None, _positive),
+    "positions": (list, None, None),
+    "placement": (str, "uniform", _one_of("uniform", "grid", "line", "ring")),
+    "area": (list, None, None),
+    "connected": (bool, False, None),
+    "spacing": (_NUM, None, _positive),
+    "range": (_NUM, None, _positive),
+    "sensing": (_NUM, None, _positive),
+    "speed": (_NUM, None, _positive),  # length units per second; none = unlimited
+    "turn_rate": (_NUM, None, _positive),  # rad per second; none = holonomic
+    "noise": (_NUM, 0.0, _non_negative),
+    "heading": (_NUM, 0.0, None),
+    "kind": (str, "ground", _one_of("ground", "flying")),
+    "behaviors": (list, [], None),
+}
+EVENT_ACTIONS = ("kill", "kill_fraction", "add", "cut", "restore", "partition", "heal", "loss", "move", "stop")
+
+
+def load(path: str | Path, overrides: list[str] = ()) -> dict:
+    """Read, override, validate and resolve the scenario file at ``path``."""
+    source = str(path)
+    try:
+        raw = tomllib.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise ScenarioError(source, "file", "no such file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(source, "syntax", str(exc)) from None
+    return resolve_scenario(raw, source, overrides)
+
+
+def resolve_scenario(raw: dict, source: str = "<scenario>", overrides: list[str] = ()) -> dict:
+    """Validate and resolve a scenario given as a dict (as parsed from TOML)."""
+    raw = copy.deepcopy(raw)
+    for item in overrides:
+        apply_override(raw, item, source)
+    known = {"run", "radio", "world", "robots", "events", "checks"}
+    for key in raw:
+        if key not in known:
+            raise ScenarioError(source, key, f"unknown section (expected one of {', '.join(sorted(known))})")
+    out: dict[str, Any] = {}
+    for section, schema in SCHEMA.items():
+        table = raw.get(section, {})
+        if not isinstance(table, dict):
+            raise ScenarioError(source, section, "must be a table")
+        out[section] = _fields(table, schema, source, section)
+    run = out["run"]
+    if run["ticks"] is None:
+        if run["duration"] is None:
+            raise ScenarioError(source, "run.ticks", "give run.ticks (or run.duration in seconds)")
+        run["ticks"] = max(1, int(round(run["duration"] / run["dt"])))
+    radio = out["radio"]
+    if radio["latency_min_s"] is not None and radio["latency_min_s"] > radio["latency_s"]:
+        raise ScenarioError(source, "radio.latency_min_s", "must not exceed radio.latency_s")
+    _check_world(out["world"], source)
+    groups = raw.get("robots")
+    if not isinstance(groups, list) or not groups:
+        raise ScenarioError(source, "robots", "give at least one [[robots]] group")
+    rng = np.random.default_rng([run["seed"], 0x5CE7])
+    out["robots"] = [_group(g, f"robots[{i}]", out, source, rng) for i, g in enumerate(groups)]
+    _connect_groups(out, source, rng)
+    out["events"] = [_event(e, f"events[{i}]", out, source, rng) for i, e in enumerate(raw.get("events", []))]
+    out["checks"] = [_check(c, f"checks[{i}]", source) for i, c in enumerate(raw.get("checks", []))]
+    out["source"] = source
+    return out
+
+
+def apply_override(raw: dict, item: str, source: str = "--set") -> None:
+    """Apply ``SECTION.KEY=VALUE`` (list items by index, e.g. ``robots.0.count=50``)."""
+    path, sep, text = item.partition("=")
+    if not sep or not path:
+        raise ScenarioError(source, item, "an override must look like section.key=value")
+    try:
+        value = tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = text
+    parts = path.split(".")
+    node: Any = raw
+    for i, part in enumerate(parts[:-1]):
+        if isinstance(node, list):
+            if not part.isdigit() or int(part) >= len(node):
+                raise ScenarioError(source, path, f"no item {part!r} in {'.'.join(parts[:i]) or 'the scenario'}")
+            node = node[int(part)]
+        else:
+            node = node.setdefault(part, {})
+    last = parts[-1]
+    if isinstance(node, list):
+        if not last.isdigit() or int(last) >= len(node):
+            raise ScenarioError(source, path, f"no item {last!r}")
+        node[int(last)] = value
+    elif isinstance(node, dict):
+        node[last] = value
+    else:
+        raise ScenarioError(source, path, "cannot set a key inside a value")
+
+
+def _fields(table: dict, schema: dict, source: str, where: str) -> dict:
+    out = {}
+    for key, value in table.items():
+        if key not in schema:
+            raise ScenarioError(source, f"{where}.{key}", f"unknown key (known: {', '.join(sorted(schema))})")
+    for key, (typ, default, check) in schema.items():
+        if key not in table:
+            out[key] = copy.deepcopy(default)
+            continue
+        value = table[key]
+        types = typ if isinstance(typ, tuple) else (typ,)
+        if isinstance(value, bool) and bool not in types or not isinstance(value, types):
+            raise ScenarioError(
+                source, f"{where}.{key}",
+                f"{value!r} is a {type(value).__name__}, expected {' or '.join(t.__name__ for t in types)}",
+            )
+        if check is not None:
+            problem = check(value)
+            if problem:
+                raise ScenarioError(source, f"{where}.{key}", f"{value!r} {problem}")
+        out[key] = value
+    return out
+
+
+def _points(value: Any, dims: int, source: str, key: str, count: int | None = None) -> np.ndarray:
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ScenarioError(source, key, "must be a list of coordinate lists") from None
+    if arr.ndim != 2 or arr.shape[1] not in (2, dims) or (count is not None and len(arr) != count):
+        raise ScenarioError(source, key, f"must be a list of {count or 'N'} points with {dims} coordinates")
+    if not np.all(np.isfinite(arr)):
+        raise ScenarioError(source, key, "coordinates must be finite")
+    if arr.shape[1] < dims:
+        arr = np.hstack([arr, np.zeros((len(arr), dims - arr.shape[1]))])
+    return arr
+
+
+def _check_world(world: dict, source: str) -> None:
+    dims = world["dims"]
+    if world["bounds"] is not None:
+        b = _points(world["bounds"], dims, source, "world.bounds", 2)
+        if np.any(b[0][:2] >= b[1][:2]):
+            raise ScenarioError(source, "world.bounds", "must be [[min...], [max...]] with min < max")
+        world["bounds"] = b.tolist()
+    names = set()
+    for i, obj in enumerate(world["objects"]):
+        key = f"world.objects[{i}]"
+        if not isinstance(obj, dict) or set(obj) != {"name", "pos"} or not isinstance(obj["name"], str):
+            raise ScenarioError(source, key, "must be {name = \"...\", pos = [x, y]}")
+        if obj["name"] in names:
+            raise ScenarioError(source, key, f"duplicate object name {obj['name']!r}")
+        names.add(obj["name"])
+        obj["pos"] = _points([obj["pos"]], dims, source, f"{key}.pos", 1)[0].tolist()
+
+
+def _group(g: Any, where: str, sc: dict, source: str, rng: np.random.Generator) -> dict:
+    if not isinstance(g, dict):
+        raise ScenarioError(source, where, "must be a table")
+    grp = _fields(g, GROUP, source, where)
+    dims = sc["world"]["dims"]
+    grp["range"] = grp["range"] if grp["range"] is not None else sc["radio"]["range"]
+    grp["sensing"] = grp["sensing"] if grp["sensing"] is not None else grp["range"]
+    if (grp["count"] is None) == (grp["positions"] is None):
+        raise ScenarioError(source, where, "give exactly one of count or positions")
+    if grp["positions"] is not None:
+        grp["positions"] = _points(grp["positions"], dims, source, f"{where}.positions").tolist()
+        grp["count"] = len(grp["positions"])
+        grp["placement"] = "explicit"
+    else:
+        grp["positions"] = _place(grp, sc, source, where, rng).tolist()
+    grp["behaviors"] = [_behavior(b, f"{where}.behaviors[{i}]", source) for i, b in enumerate(grp["behaviors"])]
+    return grp
+
+
+def _area(grp: dict, sc: dict, source: str, where: str) -> np.ndarray:
+    dims = sc["world"]["dims"]
+    if grp["area"] is not None:
+        area = _points(grp["area"], dims, source, f"{where}.area", 2)
+    elif sc["world"]["bounds"] is not None:
+        area = np.array(sc["world"]["bounds"])
+    else:
+        side = math.sqrt(grp["count"]) * grp["range"] * 0.6
+        area = np.array([[0.0] * dims, [side, side] + [0.0] * (dims - 2)])
+    return area
+
+
+def _place(grp: dict, sc: dict, source: str, where: str, rng: np.random.Generator) -> np.ndarray:
+    n, rule = grp["count"], grp["placement"]
+    area = _area(grp, sc, source, where)
+    lo, hi = area[0], area[1]
+    dims = len(lo)
+    if rule == "uniform":
+        return lo + rng.random((n, dims)) * (hi - lo)
+    spacing = grp["spacing"] if grp["spacing"] is not None else grp["range"] * 0.9
+    pts = np.zeros((n, dims))
+    if rule == "grid":
+        cols = math.ceil(math.sqrt(n))
+        for i in range(n):
+            pts[i, :2] = lo[:2] + spacing * np.array([i % cols, i // cols])
+    elif rule == "line":
+        pts[:, 0] = lo[0] + spacing * np.arange(n)
+        pts[:, 1] = lo[1]
+    elif rule == "ring":
+        # chord between neighbours on the circle equals the spacing
+        radius = spacing / (2 * math.sin(math.pi / n)) if n > 1 else 0.0
+        ang = 2 * math.pi * np.arange(n) / n
+        pts[:, 0] = lo[0] + radius * np.cos(ang)
+        pts[:, 1] = lo[1] + radius * np.sin(ang)
+    return pts
+
+
+def _connect_groups(sc: dict, source: str, rng: np.random.Generator) -> None:
+    """Redraw groups with ``connected = true`` until the whole swarm's graph is connected."""
+    groups = sc["robots"]
+    if not any(g["connected"] for g in groups):
+        return
+    for attempt in range(2000):
+        pos = np.vstack([np.array(g["positions"]) for g in groups])
+        ranges = np.concatenate([[g["range"]] * g["count"] for g in groups])
+        if undirected_graph(pos, ranges).number_of_nodes() and nx.is_connected(undirected_graph(pos, ranges)):
+            return
+        for i, g in enumerate(groups):
+            if g["connected"] and g["placement"] != "explicit":
+                g["positions"] = _place(g, sc, source, f"robots[{i}]", rng).tolist()
+    raise ScenarioError(source, "robots.connected", "no connected placement found in 2000 draws; enlarge range or shrink area")
+
+
+def undirected_graph(pos: np.ndarray, ranges: np.ndarray, ids: list[int] | None = None) -> nx.Graph:
+    """Robots as nodes, an edge where each is within the other's range (the mutual links)."""
+    ids = list(range(len(pos))) if ids is None else ids
+    g = nx.Graph()
+    g.add_nodes_from(ids)
+    if len(pos) > 1:
+        tree = cKDTree(pos)
+        for a, b in tree.query_pairs(float(np.max(ranges))):
+            d = float(np.linalg.norm(pos[a] - pos[b]))
+            if d <= ranges[a] and d <= ranges[b]:
+                g.add_edge(ids[a], ids[b])
+    return g
+
+
+def _behavior(b: Any, where: str, source: str) -> dict:
+    if not isinstance(b, dict) or not isinstance(b.get("use"), str):
+        raise ScenarioError(source, where, 'must be a table with use = "name" or "module:Class"')
+    try:
+        cls = resolve(BEHAVIORS, b["use"])
+    except PluginError as exc:
+        raise ScenarioError(source, f"{where}.use", str(exc)) from None
+    params = {k: v for k, v in b.items() if k != "use"}
+    problem = check_params(cls, params)
+    if problem:
+        raise ScenarioError(source, where, f"{b['use']}: {problem}")
+    validate = getattr(cls, "validate", None)
+    if validate is not None:
+        problem = validate(params)
+        if problem:
+            raise ScenarioError(source, where, f"{b['use']}: {problem}")
+    return dict(b)
+
+
+def _event(e: Any, where: str, sc: dict, source: str, rng: np.random.Generator) -> dict:
+    if not isinstance(e, dict) or "at" not in e:
+        raise ScenarioError(source, where, "must be a table with at = <tick>")
+    at = e["at"]
+    if not isinstance(at, int) or isinstance(at, bool) or at < 0:
+        raise ScenarioError(source, f"{where}.at", f"{at!r} is not a tick (an integer >= 0)")
+    actions = [k for k in e if k != "at"]
+    unknown = [k for k in actions if k not in EVENT_ACTIONS]
+    if unknown:
+        raise ScenarioError(source, f"{where}.{unknown[0]}", f"unknown event (known: {', '.join(EVENT_ACTIONS)})")
+    if len(actions) != 1:
+        raise ScenarioError(source, where, "give exactly one action besides 'at'")
+    action = actions[0]
+    value = e[action]
+    n = sum(g["count"] for g in sc["robots"])
+    key = f"{where}.{action}"
+    if action == "kill":
+        ids = [value] if isinstance(value, int) else value
+        if not isinstance(ids, list) or not all(isinstance(i, int) and 0 <= i < n + 1000 for i in ids):
+            raise ScenarioError(source, key, f"{value!r} must be a robot id or a list of ids")
+        value = ids
+    elif action in ("kill_fraction", "loss"):
+        if not isinstance(value, _NUM) or isinstance(value, bool) or _probability(value):
+            raise ScenarioError(source, key, f"{value!r} must be in [0, 1]")
+    elif action == "add":
+        grp = _group(value, key, sc, source, rng)
+        value = expand_group(grp)
+    elif action in ("cut", "restore"):
+        if not isinstance(value, list) or not all(
+            isinstance(p, list) and len(p) == 2 and all(isinstance(i, int) for i in p) for p in value
+        ):
+            raise ScenarioError(source, key, "must be a list of [a, b] robot id pairs")
+    elif action == "partition":
+        if not isinstance(value, list) or not all(isinstance(p, list) and all(isinstance(i, int) for i in p) for p in value):
+            raise ScenarioError(source, key, "must be a list of lists of robot ids")
+    elif action == "move":
+        names = {o["name"] for o in sc["world"]["objects"]}
+        if not isinstance(value, dict) or value.get("object") not in names or "pos" not in value:
+            raise ScenarioError(source, key, f"must be {{object = name, pos = [x, y]}} with a name in {sorted(names)}")
+    elif action in ("heal", "stop") and value is not True:
+        raise ScenarioError(source, key, "must be true")
+    return {"at": at, action: value}
+
+
+def _check(c: Any, where: str, source: str) -> dict:
+    if not isinstance(c, dict) or not isinstance(c.get("use"), str):
+        raise ScenarioError(source, where, 'must be a table with use = "family.check"')
+    try:
+        fn = resolve(CHECKS, c["use"])
+    except PluginError as exc:
+        raise ScenarioError(source, f"{where}.use", str(exc)) from None
+    params = {k: v for k, v in c.items() if k != "use"}
+    try:
+        import inspect
+
+        inspect.signature(fn).bind(None, **params)
+    except TypeError as exc:
+        raise ScenarioError(source, where, f"{c['use']}: {exc}") from None
+    return dict(c)
+
+
+def expand_group(grp: dict) -> list[dict]:
+    """Per-robot specs for the world from one resolved group."""
+    fields = ("range", "sensing", "speed", "turn_rate", "noise", "heading", "kind", "behaviors")
+    common = {k: grp[k] for k in fields if grp[k] is not None}
+    return [{"pos": p, **common} for p in grp["positions"]]
+
+
+def world_spec(sc: dict) -> dict:
+    """The world's view of a resolved scenario: per-robot specs, no checks."""
+    robots = [r for g in sc["robots"] for r in expand_group(g)]
+    return {"run": sc["run"], "radio": sc["radio"], "world": sc["world"], "robots": robots, "events": sc["events"]}

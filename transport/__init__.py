@@ -1,0 +1,22 @@
+"""Zenoh transport: the only package that imports zenoh.
+
+It holds the session configuration, the key-expression layout, the msgpack
+wire codec and the bridge from Zenoh's callback threads into asyncio.
+"""
+
+from transport.codec import MalformedMessage, pack, unpack
+from transport.config import Endpoints, make_config
+from transport.keys import Keys
+from transport.link import Link, PendingQuery, QueryError
+
+__all__ = [
+    "Endpoints",
+    "Keys",
+    "Link",
+    "MalformedMessage",
+    "PendingQuery",
+    "QueryError",
+    "make_config",
+    "pack",
+    "unpack",
+]

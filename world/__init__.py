@@ -1,0 +1,7 @@
+"""The world process: clock, kinematics, radio medium, sensing, faults, registry."""
+
+from world.radio import DROP_CAUSES, Medium, Outgoing, RadioConfig
+from world.registry import Robots
+from world.world import POS_DIGITS, World
+
+__all__ = ["DROP_CAUSES", "POS_DIGITS", "Medium", "Outgoing", "RadioConfig", "Robots", "World"]

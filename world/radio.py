@@ -1,0 +1,172 @@
+"""The radio medium: who hears a frame, when, and whether.
+
+Rules (DESIGN.md, "Radio medium"), applied once per frame from the positions
+at the send tick:
+
+* range - a disk of the *transmitter's* radius, so heterogeneous ranges give
+  directed links; a broadcast reaches every alive robot in range except the
+  sender and the frame's ``exclude`` list, an addressed frame only its
+  destination and only if in range (else dropped as ``range``);
+* cuts and partitions - a frame over a cut link or between partition groups is
+  dropped as ``cut``;
+* bandwidth - an optional cap of bytes per robot per tick; frames past it, in
+  sending order, are dropped as ``bandwidth`` for every receiver;
+* loss - per (frame, receiver), from the counter-based generator:
+  ``bernoulli`` loses with probability ``loss``; ``distance`` is Swarm Relays
+  Sec. III-A: the receiver decodes with e = 1 when d < delta, exp(-delta*d/Z)
+  otherwise (Z the transmitter's range), then ``loss`` applies on top;
+* latency - lockstep: exactly ``latency`` ticks; realtime: drawn uniformly in
+  [latency_min_s, latency_s] seconds per (frame, receiver).
+
+A frame still in the air when its receiver dies is dropped as ``dead`` at
+delivery time (by the world, not here).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from world import rng
+
+DROP_CAUSES = ("range", "loss", "cut", "bandwidth", "dead", "malformed")
+
+
+@dataclass
+class RadioConfig:
+    """The ``[radio]`` section, resolved."""
+
+    range: float = 1.0
+    latency: int = 1
+    latency_s: float = 0.01
+    latency_min_s: float | None = None
+    loss: float = 0.0
+    model: str = "bernoulli"
+    delta: float = 0.1
+    bandwidth: int = 0  # bytes per robot per tick; 0 = unlimited
+
+    @classmethod
+    def from_dict(cls, data: dict) -> RadioConfig:
+        fields = {k: v for k, v in data.items() if k in cls.__dataclass_fields__}
+        return cls(**fields)
+
+    @property
+    def c_min_s(self) -> float:
+        return self.latency_s if self.latency_min_s is None else self.latency_min_s
+
+
+@dataclass(slots=True)
+class Outgoing:
+    """One frame as the world sees it: header plus opaque body bytes."""
+
+    src: int
+    dst: int | None
+    kind: str
+    seq: int
+    body: bytes
+    exclude: tuple[int, ...] = ()
+
+
+class Medium:
+    """Decides receivers and drops for the frames of one tick."""
+
+    def __init__(self, config: RadioConfig, seed: int):
+        self.config = config
+        self.seed = seed
+        self.cuts: set[tuple[int, int]] = set()
+        self.group: dict[int, int] = {}  # robot -> partition group; absent = group 0
+
+    def set_loss(self, loss: float) -> None:
+        self.config.loss = loss
+
+    def cut(self, a: int, b: int) -> None:
+        self.cuts.add((min(a, b), max(a, b)))
+
+    def restore(self, a: int, b: int) -> None:
+        self.cuts.discard((min(a, b), max(a, b)))
+
+    def partition(self, groups: list[list[int]]) -> None:
+        self.group = {r: g + 1 for g, members in enumerate(groups) for r in members}
+
+    def heal(self) -> None:
+        self.cuts.clear()
+        self.group.clear()
+
+    def _severed(self, src: int, dst: int) -> bool:
+        if self.cuts and (min(src, dst), max(src, dst)) in self.cuts:
+            return True
+        return bool(self.group) and self.group.get(src, 0) != self.group.get(dst, 0)
+
+    def decide(
+        self,
+        tick: int,
+        frames: list[Outgoing],
+        in_range: dict[int, np.ndarray],
+        alive: np.ndarray,
+        positions: np.ndarray,
+        ranges: np.ndarray,
+    ) -> tuple[list[tuple[int, Outgoing]], list[tuple[int, int, int, str, str]]]:
+        """Return ``(deliveries, drops)`` for frames sent at ``tick``.
+
+        ``in_range[src]`` lists the alive robots within ``src``'s range (sorted).
+        A delivery is ``(receiver, frame)``; a drop is ``(src, seq, dst, kind, cause)``.
+        """
+        cfg = self.config
+        deliveries: list[tuple[int, Outgoing]] = []
+        drops: list[tuple[int, int, int, str, str]] = []
+        budget: dict[int, int] = {}
+        n = len(alive)
+        for f in frames:
+            if f.dst is None:
+                receivers = in_range[f.src]
+                if f.exclude:
+                    receivers = receivers[~np.isin(receivers, f.exclude)]
+            else:
+                d = f.dst
+                if not (0 <= d < n) or not alive[d]:
+                    drops.append((f.src, f.seq, d, f.kind, "dead"))
+                    continue
+                if np.linalg.norm(positions[d] - positions[f.src]) > ranges[f.src]:
+                    drops.append((f.src, f.seq, d, f.kind, "range"))
+                    continue
+                receivers = np.array([d], dtype=np.int64)
+            if receivers.size == 0:
+                continue
+            if cfg.bandwidth:
+                used = budget.get(f.src, 0) + len(f.body)
+                budget[f.src] = used
+                if used > cfg.bandwidth:
+                    drops.extend((f.src, f.seq, int(r), f.kind, "bandwidth") for r in receivers)
+                    continue
+            if self.cuts or self.group:
+                severed = np.array([self._severed(f.src, int(r)) for r in receivers])
+                drops.extend((f.src, f.seq, int(r), f.kind, "cut") for r in receivers[severed])
+                receivers = receivers[~severed]
+            p_ok = self._success_probability(f.src, receivers, positions, ranges)
+            if p_ok is not None:
+                u = rng.uniform(self.seed, rng.LOSS, tick, f.src, f.seq, receivers)
+                lost = u >= p_ok
+                if lost.any():
+                    drops.extend((f.src, f.seq, int(r), f.kind, "loss") for r in receivers[lost])
+                    receivers = receivers[~lost]
+            deliveries.extend((int(r), f) for r in receivers)
+        return deliveries, drops
+
+    def _success_probability(self, src, receivers, positions, ranges):
+        """Per-receiver decoding probability, or None when every frame gets through."""
+        cfg = self.config
+        if cfg.model == "distance":
+            d = np.linalg.norm(positions[receivers] - positions[src], axis=1)
+            e = np.where(d < cfg.delta, 1.0, np.exp(-cfg.delta * d / ranges[src]))
+            return e * (1.0 - cfg.loss)
+        if cfg.loss > 0.0:
+            return np.full(len(receivers), 1.0 - cfg.loss)
+        return None
+
+    def latencies_s(self, tick: int, src: int, seq: int, receivers: np.ndarray) -> np.ndarray:
+        """Realtime latency per receiver, uniform in [latency_min_s, latency_s]."""
+        lo, hi = self.config.c_min_s, self.config.latency_s
+        if hi <= lo:
+            return np.full(len(receivers), hi)
+        return lo + (hi - lo) * rng.uniform(self.seed, rng.LATENCY, tick, src, seq, receivers)

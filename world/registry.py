@@ -1,0 +1,86 @@
+"""The world's registry: every robot's true state and which host runs it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class Death:
+    tick: int
+    cause: str  # "killed", "crashed", "watchdog", "host-lost"
+    error: str | None = None
+
+
+@dataclass
+class HostEntry:
+    name: str
+    robots: set[int] = field(default_factory=set)
+    alive: bool = True
+    reported: bool = False  # final reports received
+
+
+class Robots:
+    """Arrays of true state, indexed by robot id (ids are 0, 1, 2, ... in order of creation)."""
+
+    def __init__(self, dims: int):
+        self.dims = dims
+        self.pos = np.zeros((0, dims))
+        self.heading = np.zeros(0)
+        self.vel = np.zeros((0, dims))
+        self.alive = np.zeros(0, dtype=bool)
+        self.range = np.zeros(0)
+        self.sensing = np.zeros(0)
+        self.speed = np.zeros(0)
+        self.turn_rate = np.zeros(0)
+        self.noise = np.zeros(0)
+        self.spec: list[dict] = []
+        self.host: list[str | None] = []
+        self.deaths: dict[int, Death] = {}
+        self.status: list[dict] = []
+        self.joined_at: list[int] = []
+
+    def __len__(self) -> int:
+        return len(self.spec)
+
+    def add(self, specs: list[dict], tick: int) -> list[int]:
+        """Append robots described by resolved robot specs; return their new ids."""
+        start = len(self.spec)
+        ids = list(range(start, start + len(specs)))
+
+        def col(name, default):
+            return np.array([float(s.get(name, default)) for s in specs])
+
+        pos = np.array([list(s["pos"]) + [0.0] * (self.dims - len(s["pos"])) for s in specs], dtype=float)
+        self.pos = np.vstack([self.pos, pos.reshape(len(specs), self.dims)])
+        self.heading = np.concatenate([self.heading, col("heading", 0.0)])
+        self.vel = np.vstack([self.vel, np.zeros((len(specs), self.dims))])
+        self.alive = np.concatenate([self.alive, np.ones(len(specs), dtype=bool)])
+        self.range = np.concatenate([self.range, col("range", 1.0)])
+        self.sensing = np.concatenate([self.sensing, col("sensing", 1.0)])
+        self.speed = np.concatenate([self.speed, col("speed", np.inf)])
+        self.turn_rate = np.concatenate([self.turn_rate, col("turn_rate", np.inf)])
+        self.noise = np.concatenate([self.noise, col("noise", 0.0)])
+        for rid, s in zip(ids, specs):
+            self.spec.append({**s, "id": rid})
+            self.host.append(None)
+            self.status.append({})
+            self.joined_at.append(tick)
+        return ids
+
+    def kill(self, rid: int, tick: int, cause: str, error: str | None = None) -> bool:
+        """Mark ``rid`` dead; False when it already was."""
+        if not self.alive[rid]:
+            return False
+        self.alive[rid] = False
+        self.vel[rid] = 0.0
+        self.deaths[rid] = Death(tick, cause, error)
+        return True
+
+    def alive_ids(self) -> np.ndarray:
+        return np.flatnonzero(self.alive)
+
+    def pose(self, rid: int, digits: int) -> list[float]:
+        return [round(float(v), digits) for v in self.pos[rid]] + [round(float(self.heading[rid]), digits)]
