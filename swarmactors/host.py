@@ -19,6 +19,7 @@ import inspect
 import logging
 import time
 import traceback
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import numpy as np
@@ -46,40 +47,49 @@ class Robot:
             if not type(b).name:
                 type(b).name = spec["use"]
             self.behaviors.append(b)
+        self._catch_all = [b.on_frame for b in self.behaviors if not b.kinds]
+        self._by_kind: dict[str, list] = {}
         self.started = False
         self.error: str | None = None
         self.alive = True
         self.sent_status: dict[str, Any] = {}
         self.bad_bodies = 0
 
+    def handlers(self, kind: str) -> list:
+        """The on_frame hooks for ``kind``: behaviours that own it, or own no kind at all."""
+        hs = self._by_kind.get(kind)
+        if hs is None:
+            hs = self._by_kind[kind] = [b.on_frame for b in self.behaviors if b.kinds and kind in b.kinds]
+            hs += self._catch_all
+        return hs
+
     # -- one step --------------------------------------------------------
-    def calls(self, inbox: list, sensed: list[Sensed]) -> list:
-        """The hook calls of one lockstep step, in order: start, frames, timers, tick."""
-        out = []
+    def calls(self, frames: list[Frame], sensed) -> Iterator[tuple]:
+        """The hook calls of one step, in order: start, frames (by src, seq), due timers, tick."""
+        ctx = self.ctx
         if not self.started:
             self.started = True
-            out += [(b.on_start, (self.ctx,)) for b in self.behaviors]
-        for src, kind, seq, body, sent in inbox:
-            frame = self.decode(src, kind, seq, body, sent)
-            if frame is not None:
-                out += [(b.on_frame, (self.ctx, frame)) for b in self.behaviors if not b.kinds or kind in b.kinds]
-        out += [(fn, ()) for fn in self.due_timers()]
-        out += [(b.on_tick, (self.ctx, sensed)) for b in self.behaviors]
-        return out
+            for b in self.behaviors:
+                yield b.on_start, (ctx,)
+        for frame in frames:
+            for h in self.handlers(frame.kind):
+                yield h, (ctx, frame)
+        for fn in self.due_timers():
+            yield fn, ()
+        for b in self.behaviors:
+            yield b.on_tick, (ctx, sensed)
 
-    def decode(self, src, kind, seq, body, sent) -> Frame | None:
-        try:
-            return Frame(src, kind, unpack(body, what="frame body"), seq, sent)
-        except MalformedMessage:
-            self.bad_bodies += 1
-            return None
+    def frame_calls(self, frame: Frame) -> Iterator[tuple]:
+        for h in self.handlers(frame.kind):
+            yield h, (self.ctx, frame)
 
     def due_timers(self) -> list:
         timers = self.ctx._timers
         if not timers:
             return []
-        due = sorted(t for t in timers if t[0] <= self.ctx.now)
-        self.ctx._timers = [t for t in timers if t[0] > self.ctx.now]
+        now = self.ctx.now
+        due = sorted(t for t in timers if t[0] <= now)
+        self.ctx._timers = [t for t in timers if t[0] > now]
         return [fn for _, _, fn in due]
 
     def outputs(self) -> list:
@@ -87,9 +97,13 @@ class Robot:
         ctx = self.ctx
         frames, ctx._outbox = ctx._outbox, []
         vel, ctx._velocity = ctx._velocity, None
-        changed = {k: v for k, v in ctx._status.items() if self.sent_status.get(k, _MISSING) != v}
-        self.sent_status.update(changed)
-        return [self.id, vel, frames, changed or None, self.error]
+        changed = None
+        if ctx._status:
+            sent = self.sent_status
+            changed = {k: v for k, v in ctx._status.items() if k not in sent or sent[k] != v} or None
+            if changed:
+                sent.update(changed)
+        return [self.id, vel, frames, changed, self.error]
 
     def fail(self, exc: BaseException | str) -> None:
         if isinstance(exc, BaseException):
@@ -117,28 +131,24 @@ class Robot:
         return rep
 
 
-_MISSING = object()
-
-
-def run_calls(robot: Robot, calls: list) -> Any:
+def run_calls(robot: Robot, calls: Iterator[tuple]) -> Any:
     """Run hook calls until one returns an awaitable; return the rest as a coroutine, or None."""
-    for i, (fn, args) in enumerate(calls):
-        try:
+    try:
+        for fn, args in calls:
             result = fn(*args)
-        except Exception as exc:
-            robot.fail(exc)
-            return None
-        if inspect.isawaitable(result):
-            return _finish(robot, result, calls[i + 1 :])
+            if result is not None and inspect.isawaitable(result):
+                return _finish(robot, result, calls)
+    except Exception as exc:
+        robot.fail(exc)
     return None
 
 
-async def _finish(robot: Robot, first, rest: list) -> None:
+async def _finish(robot: Robot, first, rest: Iterator[tuple]) -> None:
     try:
         await first
         for fn, args in rest:
             result = fn(*args)
-            if inspect.isawaitable(result):
+            if result is not None and inspect.isawaitable(result):
                 await result
     except asyncio.CancelledError:
         raise
@@ -146,8 +156,41 @@ async def _finish(robot: Robot, first, rest: list) -> None:
         robot.fail(exc)
 
 
-def to_sensed(rows: list) -> list[Sensed]:
-    return [Sensed(int(r[0]), np.array(r[1:], dtype=float)) for r in rows]
+class SensedView(Sequence):
+    """What a robot sensed this tick, as ``Sensed`` items built only when read."""
+
+    __slots__ = ("_ids", "_flat", "_dims")
+
+    def __init__(self, ids: list[int], flat: list[float], dims: int):
+        self._ids, self._flat, self._dims = ids, flat, dims
+
+    def __len__(self) -> int:
+        return len(self._ids)
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self[k] for k in range(*i.indices(len(self)))]
+        d = self._dims
+        return Sensed(self._ids[i], np.array(self._flat[i * d : (i + 1) * d]))
+
+    @property
+    def ids(self) -> list[int]:
+        return self._ids
+
+    def positions(self) -> np.ndarray:
+        """All sensed positions as an (n, dims) array."""
+        return np.array(self._flat, dtype=float).reshape(len(self._ids), self._dims)
+
+
+def decode_table(robots: dict[int, Robot], table: list) -> list[Frame | None]:
+    """Decode each frame body of a downlink once; None for an undecodable body."""
+    out: list[Frame | None] = []
+    for src, kind, seq, body, sent in table:
+        try:
+            out.append(Frame(src, kind, unpack(body, what="frame body"), seq, sent))
+        except MalformedMessage:
+            out.append(None)
+    return out
 
 
 class RobotHost:
@@ -201,9 +244,9 @@ class RobotHost:
         for descr in msg.get("new", ()):
             self._adopt(descr)
 
-    def _set_inputs(self, robot: Robot, row: list, now: float, objects: dict) -> None:
+    def _set_inputs(self, robot: Robot, pose: list, now: float, objects: dict) -> None:
         ctx = robot.ctx
-        ctx.pose = np.array(row[1], dtype=float)
+        ctx.pose = np.array(pose, dtype=float)
         ctx.now = now
         ctx.tick = self.tick
         ctx.objects = objects
@@ -222,14 +265,20 @@ class RobotHost:
     async def _step_lockstep(self, msg: dict) -> list:
         self._take_membership(msg)
         now, objects = msg["now"], msg.get("objects", {})
+        frames = decode_table(self.robots, msg.get("frames", ()))
+        dims = len(msg["in"][0][1]) - 1 if msg["in"] else 2
         pending: dict[asyncio.Task, Robot] = {}
         stepped: list[Robot] = []
-        for row in msg["in"]:
-            robot = self.robots.get(row[0])
+        for rid, pose, (ids, flat), refs in msg["in"]:
+            robot = self.robots.get(rid)
             if robot is None or not robot.alive:
                 continue
-            self._set_inputs(robot, row, now, objects)
-            rest = run_calls(robot, robot.calls(row[3], to_sensed(row[2])))
+            self._set_inputs(robot, pose, now, objects)
+            inbox = [frames[k] for k in refs]
+            if None in inbox:
+                robot.bad_bodies += inbox.count(None)
+                inbox = [f for f in inbox if f is not None]
+            rest = run_calls(robot, robot.calls(inbox, SensedView(ids, flat, dims)))
             if rest is not None:
                 pending[asyncio.ensure_future(rest)] = robot
             stepped.append(robot)
@@ -238,10 +287,7 @@ class RobotHost:
             for task in late:
                 task.cancel()
                 pending[task].fail(f"watchdog: step of tick {self.tick} exceeded {self.run_info['watchdog_s']} s")
-        out = []
-        for robot in stepped:
-            out.append(robot.outputs())
-        return out
+        return [robot.outputs() for robot in stepped]
 
     async def _send_reports(self, uplink: str) -> None:
         reports = {rid: r.report() for rid, r in self.robots.items()}
@@ -282,12 +328,12 @@ class RobotHost:
                 robot = self.robots.get(rid)
                 if robot is None or not robot.alive:
                     continue
-                frame = robot.decode(src, kind, seq, body, sent)
+                (frame,) = decode_table(self.robots, [[src, kind, seq, body, sent]])
                 if frame is None:
+                    robot.bad_bodies += 1
                     continue
                 robot.ctx.now = now
-                calls = [(b.on_frame, (robot.ctx, frame)) for b in robot.behaviors if not b.kinds or kind in b.kinds]
-                self._rt_run(robot, calls)
+                self._rt_run(robot, robot.frame_calls(frame))
                 touched.append(robot)
         if "in" in msg:
             if "epoch" in msg:
@@ -295,16 +341,16 @@ class RobotHost:
             self.tick = msg["t"]
             self._take_membership(msg)
             objects = msg.get("objects", {})
-            for row in msg["in"]:
-                robot = self.robots.get(row[0])
+            for rid, pose, (ids, flat), _ in msg["in"]:
+                robot = self.robots.get(rid)
                 if robot is None or not robot.alive:
                     continue
-                self._set_inputs(robot, row, self._rt_now(), objects)
-                self._rt_run(robot, robot.calls([], to_sensed(row[2])))
+                self._set_inputs(robot, pose, self._rt_now(), objects)
+                self._rt_run(robot, robot.calls([], SensedView(ids, flat, len(pose) - 1)))
                 touched.append(robot)
         self._rt_flush(touched)
 
-    def _rt_run(self, robot: Robot, calls: list) -> None:
+    def _rt_run(self, robot: Robot, calls: Iterator[tuple]) -> None:
         rest = run_calls(robot, calls)
         if rest is None:
             return

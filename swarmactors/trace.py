@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import hashlib
 from collections.abc import Iterator
+from operator import itemgetter
 from pathlib import Path
 
 import msgpack
@@ -35,22 +36,23 @@ class TraceError(ValueError):
     """A trace file that cannot be read; names the file and the byte offset."""
 
 
+# Unique sort keys of each list: pos is built in id order and lockstep
+# deliveries in (dst, src, seq) order by the world; the others arrive in host order.
+_KEYS = {"sent": itemgetter(0, 1), "drop": itemgetter(0, 1, 2)}
+
+
 def canonical(rec: dict) -> dict:
     """Sort a tick record's lists and maps so that it does not depend on processing order."""
     out = {"t": rec["t"]}
     for key in ("pos", "sent", "del", "drop"):
         if rec.get(key):
-            out[key] = sorted(rec[key], key=_sort_key)
+            out[key] = sorted(rec[key], key=_KEYS[key]) if key in _KEYS else rec[key]
     if rec.get("status"):
         out["status"] = {rid: dict(sorted(rec["status"][rid].items())) for rid in sorted(rec["status"])}
     for key in ("ev", "mal"):
         if rec.get(key):
             out[key] = sorted(rec[key], key=pack)
     return out
-
-
-def _sort_key(row: list) -> tuple:
-    return tuple((0, v) if isinstance(v, (int, float)) else (1, str(v)) for v in row)
 
 
 class TraceHasher:

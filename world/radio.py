@@ -25,6 +25,7 @@ delivery time (by the world, not here).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import repeat
 
 import numpy as np
 
@@ -106,11 +107,12 @@ class Medium:
         alive: np.ndarray,
         positions: np.ndarray,
         ranges: np.ndarray,
-    ) -> tuple[list[tuple[int, Outgoing]], list[tuple[int, int, int, str, str]]]:
+    ) -> tuple[list[tuple], list[tuple[int, int, int, str, str]]]:
         """Return ``(deliveries, drops)`` for frames sent at ``tick``.
 
         ``in_range[src]`` lists the alive robots within ``src``'s range (sorted).
-        A delivery is ``(receiver, frame)``; a drop is ``(src, seq, dst, kind, cause)``.
+        A delivery is ``(receiver, src, seq, frame, tick)``; a drop is
+        ``(src, seq, dst, kind, cause)``.
         """
         cfg = self.config
         deliveries: list[tuple[int, Outgoing]] = []
@@ -150,7 +152,7 @@ class Medium:
                 if lost.any():
                     drops.extend((f.src, f.seq, int(r), f.kind, "loss") for r in receivers[lost])
                     receivers = receivers[~lost]
-            deliveries.extend((int(r), f) for r in receivers)
+            deliveries.extend(zip(receivers.tolist(), repeat(f.src), repeat(f.seq), repeat(f), repeat(tick)))
         return deliveries, drops
 
     def _success_probability(self, src, receivers, positions, ranges):

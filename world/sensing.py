@@ -36,18 +36,25 @@ def sense(
     seed: int,
     tick: int,
     digits: int = 6,
-) -> dict[int, list[list]]:
-    """``{i: [[j, x, y(, z)], ...]}`` for every alive robot, noisy where ``noise[i] > 0``."""
-    out: dict[int, list[list]] = {}
+) -> dict[int, list]:
+    """``{i: [[j, ...], [x_j, y_j(, z_j), ...]]}`` (ids, flat coordinates) per alive robot.
+
+    Positions are noisy where ``noise[i] > 0``; the flat layout keeps the
+    per-tick cost in numpy rather than in Python loops over neighbours.
+    """
+    out: dict[int, list] = {}
+    rounded = np.round(pos, digits)
     for i, ids in neighbours.items():
-        p = pos[ids]
         if noise[i] > 0.0 and ids.size:
+            p = pos[ids].copy()
             u1 = rng.uniform(seed, rng.NOISE, tick, i, ids * 2)
             u2 = rng.uniform(seed, rng.NOISE, tick, i, ids * 2 + 1)
             # Box-Muller: one Gaussian per coordinate pair from two uniforms.
             r = np.sqrt(-2.0 * np.log(np.maximum(u1, 1e-300))) * noise[i]
-            p = p.copy()
             p[:, 0] += r * np.cos(2 * np.pi * u2)
             p[:, 1] += r * np.sin(2 * np.pi * u2)
-        out[i] = [[j, *row] for j, row in zip(ids.tolist(), np.round(p, digits).tolist())]
+            flat = np.round(p, digits).ravel().tolist()
+        else:
+            flat = rounded[ids].ravel().tolist()
+        out[i] = [ids.tolist(), flat]
     return out

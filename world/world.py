@@ -30,6 +30,7 @@ import time
 from collections import defaultdict
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from operator import itemgetter
 from typing import Any, Protocol
 
 import numpy as np
@@ -43,6 +44,8 @@ from world.sensing import sense, within
 
 log = logging.getLogger(__name__)
 
+_NOTHING: list = [[], []]
+_BY_DST_SRC_SEQ = itemgetter(0, 1, 2)
 POS_DIGITS = 6  # positions in traces, state and hashes are rounded to 1e-6 length units
 PROTOCOL_VERSION = 1
 
@@ -145,6 +148,7 @@ class World:
         self._rec: dict[str, Any] = {}
         self._reach: dict[int, np.ndarray] = {}
         self._sensed: dict[int, list] = {}
+        self._poses: list[list[float]] = []
         self._seq_seen: dict[int, int] = {}
 
     # ------------------------------------------------------------ set-up
@@ -388,35 +392,34 @@ class World:
                 c.drop(src, cause)
                 rec_drops.append([src, seq, dst, cause])
         if self.clock == "lockstep":
-            due = self._due[self.tick + self.radio.latency]
-            due.extend((dst, f, self.tick) for dst, f in deliveries)
+            self._due[self.tick + self.radio.latency].extend(deliveries)
         else:
             self._schedule_realtime(deliveries)
 
     def _deliver_due(self, tick: int) -> dict[int, list]:
-        """Lockstep: the inboxes of tick ``tick``, each ordered by (src, seq)."""
+        """Lockstep: each robot's inbox of tick ``tick`` as (frame, send tick), ordered by (src, seq)."""
         inbox: dict[int, list] = defaultdict(list)
         due = self._due.pop(tick, [])
-        due.sort(key=lambda d: (d[0], d[1].src, d[1].seq))
+        due.sort(key=_BY_DST_SRC_SEQ)
         rec_del = self._rec.setdefault("del", [])
         alive = self.robots.alive
         c = self.counters
-        for dst, f, sent_tick in due:
+        for dst, _, _, f, sent_tick in due:
             if not alive[dst]:
                 c.drop(f.src, "dead")
                 self._rec.setdefault("drop", []).append([f.src, f.seq, dst, "dead"])
                 continue
-            inbox[dst].append([f.src, f.kind, f.seq, f.body, sent_tick])
+            inbox[dst].append((f, sent_tick))
             rec_del.append([f.src, f.seq, dst, sent_tick])
-            c.delivered += 1
             c.received_by[dst] += 1
+        c.delivered += len(rec_del)
         return inbox
 
     def _schedule_realtime(self, deliveries: list[tuple[int, Outgoing]]) -> None:
         loop = asyncio.get_running_loop()
         by_frame: dict[int, list[int]] = defaultdict(list)
         frames: dict[int, Outgoing] = {}
-        for dst, f in deliveries:
+        for dst, _, _, f, _ in deliveries:
             by_frame[id(f)].append(dst)
             frames[id(f)] = f
         sent_at = time.time() - self.epoch
@@ -656,16 +659,32 @@ class World:
         else:
             sensed_ids = within(self.robots.pos, alive, self.robots.sensing)
         self._sensed = sense(self.robots.pos, sensed_ids, self.robots.noise, self.seed, self.tick, POS_DIGITS)
+        r = self.robots
+        self._poses = np.round(np.hstack([r.pos, r.heading[:, None]]), POS_DIGITS).tolist()
 
     def _inputs_for(self, host: str, inbox: dict[int, list] | None) -> dict:
-        """Step 3: one host's inputs for this tick."""
+        """Step 3: one host's inputs for this tick.
+
+        Each frame body travels once per host (``frames``), however many of the
+        host's robots receive it; a robot's inbox lists indices into that table.
+        """
         entry = self.hosts[host]
         rows = []
+        table: list[list] = []
+        index: dict[int, int] = {}
+        poses = self._poses
         for rid in sorted(entry.robots):
-            if self.robots.alive[rid]:
-                rows.append([rid, self.robots.pose(rid, POS_DIGITS), self._sensed.get(rid, []),
-                             inbox.get(rid, []) if inbox is not None else []])
-        msg = {"t": self.tick, "now": self._now(), "in": rows, "objects": self.objects}
+            if not self.robots.alive[rid]:
+                continue
+            refs = []
+            for f, sent_tick in (inbox.get(rid, ()) if inbox is not None else ()):
+                k = index.get(id(f))
+                if k is None:
+                    k = index[id(f)] = len(table)
+                    table.append([f.src, f.kind, f.seq, f.body, sent_tick])
+                refs.append(k)
+            rows.append([rid, poses[rid], self._sensed.get(rid, _NOTHING), refs])
+        msg = {"t": self.tick, "now": self._now(), "in": rows, "frames": table, "objects": self.objects}
         if self._pending_dead.get(host):
             msg["dead"] = self._pending_dead.pop(host)
         if self._pending_new.get(host):
