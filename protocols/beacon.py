@@ -27,6 +27,8 @@ class Beacon(Behavior):
         self.sent = 0
         self.heard: Counter = Counter()
         self.delay_sum = 0.0
+        self.delay_min: float | None = None
+        self.delay_max: float | None = None
 
     def on_tick(self, ctx: Context, sensed) -> None:
         if ctx.tick % self.every == 0 and (self.until is None or ctx.tick <= self.until):
@@ -35,12 +37,18 @@ class Beacon(Behavior):
 
     def on_frame(self, ctx: Context, frame: Frame) -> None:
         self.heard[frame.src] += 1
-        self.delay_sum += ctx.now - frame.body[0]
+        delay = ctx.now - frame.body[0]
+        self.delay_sum += delay
+        if self.delay_min is None or delay < self.delay_min:
+            self.delay_min = delay
+        if self.delay_max is None or delay > self.delay_max:
+            self.delay_max = delay
 
     def report(self) -> dict:
         n = sum(self.heard.values())
         return {"sent": self.sent, "heard": n, "senders": len(self.heard),
-                "mean_delay": self.delay_sum / n if n else None}
+                "mean_delay": self.delay_sum / n if n else None, "min_delay": self.delay_min,
+                "max_delay": self.delay_max}
 
     @classmethod
     def metrics(cls, reports: dict[int, dict]) -> dict:
