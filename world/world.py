@@ -401,17 +401,21 @@ class World:
         inbox: dict[int, list] = defaultdict(list)
         due = self._due.pop(tick, [])
         due.sort(key=_BY_DST_SRC_SEQ)
+        alive = self.robots.alive.tolist()
         rec_del = self._rec.setdefault("del", [])
-        alive = self.robots.alive
+        dead: list = []
+        for d in due:
+            if alive[d[0]]:
+                inbox[d[0]].append((d[3], d[4]))
+                rec_del.append([d[1], d[2], d[0], d[4]])
+            else:
+                dead.append(d)
         c = self.counters
-        for dst, _, _, f, sent_tick in due:
-            if not alive[dst]:
-                c.drop(f.src, "dead")
-                self._rec.setdefault("drop", []).append([f.src, f.seq, dst, "dead"])
-                continue
-            inbox[dst].append((f, sent_tick))
-            rec_del.append([f.src, f.seq, dst, sent_tick])
-            c.received_by[dst] += 1
+        for dst, src, seq, _, _ in dead:
+            c.drop(src, "dead")
+            self._rec.setdefault("drop", []).append([src, seq, dst, "dead"])
+        for dst, frames in inbox.items():
+            c.received_by[dst] += len(frames)
         c.delivered += len(rec_del)
         return inbox
 
