@@ -122,3 +122,26 @@ def test_realtime_delivery_never_earlier_than_c_min(run):
     assert len(mins) > 10
     assert min(mins) >= 0.01 - 1e-4
     assert result["world"]["deliveries"] > 500
+
+
+def test_realtime_now_is_seconds_since_start(run):
+    sc = beacon_scenario(seed=2, ticks=10, clock="realtime", latency_s=0.01)
+    sc["run"]["dt"] = 0.05
+    sc["robots"][0]["behaviors"] = [{"use": "tests_support:Clock"}]
+    result = run(sc)
+    nows = [r["last_now"] for r in result.reports("clock").values()]
+    assert all(0.3 < n < 2.0 for n in nows), nows  # 10 ticks of 0.05 s, not a Unix time
+
+
+def test_sensing_noise_is_seeded_and_bounded(run):
+    sc = beacon_scenario(seed=2, ticks=3)
+    sc["robots"][0]["behaviors"] = [{"use": "tests_support:Clock"}]
+    sc["robots"][0]["noise"] = 0.05
+    a, b = run(sc), run(sc)
+    firsts = {rid: r["first"] for rid, r in a.reports("clock").items() if r["first"]}
+    assert firsts == {rid: r["first"] for rid, r in b.reports("clock").items() if r["first"]}  # seeded
+    true = {row[0]: np.array(row[1:]) for row in a.record(0)["pos"]}
+    errors = [float(np.linalg.norm(np.array(f[1:]) - true[f[0]])) for f in firsts.values()]
+    assert len(errors) > 10
+    assert 0.0 < max(errors) < 0.05 * 6  # noisy, within six sigma
+    assert 0.01 < float(np.mean(errors)) < 0.15  # Rayleigh mean of sigma 0.05 is about 0.063

@@ -14,3 +14,23 @@ class RandomWalk(Behavior):
         if ctx.tick % 3 == 0:
             ctx.move(ctx.rng.normal(size=2))
         ctx.set_status(moved=ctx.tick)
+
+
+class Clock(Behavior):
+    """Record ctx.now and the error of sensed positions against the true ones (from the tick's record)."""
+
+    name = "clock"
+
+    def __init__(self):
+        self.last_now = None
+        self.sense_error = None
+        self.first = None
+
+    def on_tick(self, ctx, sensed) -> None:
+        self.last_now = ctx.now
+        if ctx.tick == 0 and len(sensed):
+            # relative sensed position of the first neighbour; compared after the run via the report
+            self.first = [sensed[0].id, *sensed[0].pos.tolist()]
+
+    def report(self) -> dict:
+        return {"last_now": self.last_now, "sense_error": self.sense_error, "first": self.first}

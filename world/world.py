@@ -689,6 +689,8 @@ class World:
                 refs.append(k)
             rows.append([rid, poses[rid], self._sensed.get(rid, _NOTHING), refs])
         msg = {"t": self.tick, "now": self._now(), "in": rows, "frames": table, "objects": self.objects}
+        if self.clock == "realtime":
+            msg["epoch"] = self.epoch
         if self._pending_dead.get(host):
             msg["dead"] = self._pending_dead.pop(host)
         if self._pending_new.get(host):
