@@ -81,7 +81,9 @@ class Link:
 
     # -- publish / subscribe --------------------------------------------
     def publish(self, key: str, data: bytes, *, reliable: bool = True) -> None:
-        """Put ``data`` on ``key`` through a cached publisher of the right class."""
+        """Put ``data`` on ``key`` through a cached publisher of the right class (no-op once closed)."""
+        if self._closed:
+            return
         pub = self._publishers.get((key, reliable))
         if pub is None:
             if reliable:

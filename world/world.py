@@ -564,8 +564,8 @@ class World:
     def _on_liveliness(self, key: str, alive: bool) -> None:
         host = self.keys.host_of(key)
         entry = self.hosts.get(host)
-        if alive or entry is None or not entry.alive:
-            return
+        if alive or entry is None or not entry.alive or entry.reported or self.finished:
+            return  # a host that delivered its final report may leave
         self._lose_host(host, "host-lost")
 
     def _lose_host(self, host: str, cause: str) -> None:

@@ -1,0 +1,115 @@
+"""Docker: the image built without a registry, compose runs with several robot containers."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+import threading
+import time
+import uuid
+from pathlib import Path
+
+import pytest
+
+from needs import require_docker
+
+REPO = Path(__file__).resolve().parents[1]
+COMPOSE_FILE = REPO / "docker" / "compose.yaml"
+pytestmark = pytest.mark.docker
+
+
+@pytest.fixture(scope="session")
+def image():
+    """Build (or reuse) the base image and the project image."""
+    compose = require_docker()
+    env = {**os.environ, "PYTHON": sys.executable}
+    out = subprocess.run([str(REPO / "docker" / "build-image.sh")], env=env, capture_output=True, text=True,
+                         timeout=1200)
+    assert out.returncode == 0, out.stderr + out.stdout
+    return compose
+
+
+def compose_up(compose, scenario: Path, out: Path, replicas: int, per_host: int, clock="lockstep",
+               on_running=None) -> tuple[int, str]:
+    project = f"sa{uuid.uuid4().hex[:8]}"
+    env = {**os.environ, "SCENARIO": str(scenario), "OUT": str(out), "ROBOTS_PER_HOST": str(per_host),
+           "CLOCK": clock, "RUN_ID": project}
+    base = [*compose, "-p", project, "-f", str(COMPOSE_FILE)]
+    try:
+        proc = subprocess.Popen([*base, "up", "--scale", f"robots={replicas}", "--abort-on-container-exit",
+                                 "--exit-code-from", "world"], env=env, stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, text=True)
+        if on_running:
+            threading.Thread(target=on_running, args=(base, env), daemon=True).start()
+        logs, _ = proc.communicate(timeout=300)
+        return proc.returncode, logs
+    finally:
+        subprocess.run([*base, "down", "--remove-orphans", "-t", "2"], env=env, capture_output=True, timeout=120)
+
+
+def single_process(scenario: Path, out: Path, *extra: str) -> dict:
+    subprocess.run([sys.executable, "-m", "swarmactors", "run", str(scenario), "--out", str(out), "--quiet", *extra],
+                   check=True, timeout=300)
+    return json.loads((out / "result.json").read_text())
+
+
+def test_compose_run_equals_the_single_process_run(image, tmp_path):
+    scenario = REPO / "scenarios" / "flooding.toml"
+    out = tmp_path / "compose"
+    out.mkdir()
+    code, logs = compose_up(image, scenario, out, replicas=3, per_host=10)
+    assert code == 0, logs[-3000:]
+    got = json.loads((out / "result.json").read_text())
+    ref = single_process(scenario, tmp_path / "single")
+    assert {r["host"] for r in got["robots"].values()} == {"h0", "h1", "h2"}  # three containers ran robots
+    assert got["trace_hash"] == ref["trace_hash"]  # lockstep: identical history
+    assert {k: r["flooding"]["received"] for k, r in got["robots"].items()} == \
+        {k: r["flooding"]["received"] for k, r in ref["robots"].items()}
+    assert all(c["passed"] for c in got["checks"])
+
+
+def test_killing_a_robot_container_fails_its_robots_and_the_run_goes_on(image, tmp_path):
+    scenario = tmp_path / "rt.toml"
+    scenario.write_text(textwrap.dedent("""
+        [run]
+        name = "rt"
+        seed = 3
+        clock = "realtime"
+        ticks = 80
+        dt = 0.1
+        [radio]
+        latency_s = 0.01
+        [[robots]]
+        count = 9
+        placement = "grid"
+        spacing = 0.6
+        behaviors = [{ use = "beacon" }]
+    """))
+    out = tmp_path / "out"
+    out.mkdir()
+    killed = {}
+
+    def kill_one(base, env):
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline:
+            ids = subprocess.run([*base, "ps", "-q", "robots"], env=env, capture_output=True, text=True).stdout.split()
+            if len(ids) == 3 and (out / "trace.msgpack").exists():
+                time.sleep(2.0)  # let the run tick for a while
+                subprocess.run(["docker", "kill", ids[0]], capture_output=True)
+                killed["at"] = time.monotonic()
+                return
+            time.sleep(0.3)
+
+    code, logs = compose_up(image, scenario, out, replicas=3, per_host=3, clock="realtime", on_running=kill_one)
+    assert code == 0, logs[-3000:]
+    assert killed, "no robot container was killed"
+    result = json.loads((out / "result.json").read_text())
+    failed = [r for r in result["robots"].values() if r["failed"]]
+    assert len(failed) == 3 and all(r["failed"]["cause"] == "host-lost" for r in failed)
+    assert 0 < min(r["failed"]["tick"] for r in failed) < 80
+    assert result["ticks"] == 80
+    survivors = [r for r in result["robots"].values() if r["alive"]]
+    assert len(survivors) == 6 and all(r["beacon"]["heard"] > 0 for r in survivors)
