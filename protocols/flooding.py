@@ -40,7 +40,7 @@ class Flooding(Behavior):
     kinds = (KIND,)
     plot_field = "hop"
 
-    def __init__(self, origin: int = 0, at: int = 0, expiry: float | None = 5, hops: int | None = None,
+    def __init__(self, origin: int = 0, at: int = 0, expiry: float | None = None, hops: int | None = None,
                  payload: object = None):
         self.origin, self.at, self.expiry, self.hops, self.payload = origin, at, expiry, hops, payload
         self.received: dict[str, dict] = {}
@@ -53,8 +53,8 @@ class Flooding(Behavior):
 
     @staticmethod
     def validate(params: dict) -> str | None:
-        if params.get("expiry") is None and params.get("hops") is None and "expiry" in params:
-            return "give expiry or hops (or both)"
+        if params.get("expiry") is None and params.get("hops") is None:
+            return "give expiry (the expiration period) or hops (a hop limit), or both"
         for key in ("origin", "at", "hops"):
             v = params.get(key)
             if v is not None and (not isinstance(v, int) or isinstance(v, bool) or v < 0):
@@ -131,7 +131,7 @@ def _params(result: Result) -> dict:
     for g in result["scenario"]["robots"]:
         for b in g["behaviors"]:
             if b["use"] in ("flooding", "protocols.flooding:Flooding"):
-                return {"origin": 0, "at": 0, "expiry": 5, "hops": None} | {k: v for k, v in b.items() if k != "use"}
+                return {"origin": 0, "at": 0, "expiry": None, "hops": None} | {k: v for k, v in b.items() if k != "use"}
     raise ValueError("no flooding behaviour in this scenario")
 
 

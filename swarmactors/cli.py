@@ -18,7 +18,6 @@ from rich.console import Console
 
 from swarmactors import scenario as scenario_mod
 from swarmactors.launcher import new_run_id, run_world, serve_host
-from swarmactors.plots import plot_run
 from swarmactors.plugins import BEHAVIORS, resolve
 from swarmactors.progress import RunProgress, summary_table
 from swarmactors.scenario import ScenarioError
@@ -75,19 +74,27 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
-    err = Console(stderr=True, no_color=not sys.stderr.isatty())
+    err = Console(stderr=True, no_color=not sys.stderr.isatty(), soft_wrap=True)
+    _user_modules_importable(getattr(args, "scenario", None))
     try:
         if args.command == "robots":
             return _robots(args)
         sc = _load(args)
     except (ScenarioError, UsageError, ValueError) as exc:
-        err.print(f"[red]error:[/] {exc}", highlight=False, markup=True)
+        print(f"error: {exc}", file=sys.stderr)  # plain text: paths and keys must not be wrapped
         return EXIT_INPUT
     try:
         return _run(args, sc, err)
     except (RuntimeError, OSError) as exc:
-        err.print(f"[red]run failed:[/] {exc}", highlight=False)
+        print(f"run failed: {exc}", file=sys.stderr)
         return EXIT_RUNTIME
+
+
+def _user_modules_importable(scenario: str | None) -> None:
+    """Let ``use = "module:Class"`` find modules beside the scenario file and in the current directory."""
+    for folder in ([str(Path(scenario).resolve().parent)] if scenario else []) + [str(Path.cwd())]:
+        if folder not in sys.path:
+            sys.path.append(folder)
 
 
 def _load(args) -> dict:
@@ -119,6 +126,8 @@ def _run(args, sc: dict, err: Console) -> int:
     field = _plot_field(sc)
     if result.trace_path is not None or result["robots"]:
         try:
+            from swarmactors.plots import plot_run  # matplotlib is slow to import: only when plotting
+
             plot_run(result, out_dir / "swarm.png", field)
         except Exception as exc:  # a plot must never cost the run its result
             err.print(f"[yellow]plot skipped:[/] {exc}")

@@ -26,7 +26,7 @@ import numpy as np
 
 from swarmactors.behavior import Behavior, Context, Frame, Sensed
 from swarmactors.plugins import BEHAVIORS, resolve
-from transport import Keys, Link, MalformedMessage, pack, unpack
+from transport import Keys, Link, MalformedMessage, pack, seal, unpack
 
 log = logging.getLogger(__name__)
 
@@ -40,20 +40,23 @@ class Robot:
         self.ctx._encode = pack
         self.ctx.pose = np.array(descr["pose"], dtype=float)
         self.behaviors: list[Behavior] = []
-        for spec in descr.get("behaviors", []):
-            params = {k: v for k, v in spec.items() if k != "use"}
-            cls = resolve(BEHAVIORS, spec["use"])
-            b = cls(**params)
-            if not type(b).name:
-                type(b).name = spec["use"]
-            self.behaviors.append(b)
-        self._catch_all = [b.on_frame for b in self.behaviors if not b.kinds]
-        self._by_kind: dict[str, list] = {}
         self.started = False
         self.error: str | None = None
+        self.error_sent = False
         self.alive = True
         self.sent_status: dict[str, Any] = {}
         self.bad_bodies = 0
+        try:
+            for spec in descr.get("behaviors", []):
+                params = {k: v for k, v in spec.items() if k != "use"}
+                b = resolve(BEHAVIORS, spec["use"])(**params)
+                if not type(b).name:
+                    type(b).name = spec["use"]
+                self.behaviors.append(b)
+        except Exception as exc:  # a behaviour that cannot be built crashes its robot, not the host
+            self.fail(exc)
+        self._catch_all = [b.on_frame for b in self.behaviors if not b.kinds]
+        self._by_kind: dict[str, list] = {}
 
     def handlers(self, kind: str) -> list:
         """The on_frame hooks for ``kind``: behaviours that own it, or own no kind at all."""
@@ -103,6 +106,8 @@ class Robot:
             changed = {k: v for k, v in ctx._status.items() if k not in sent or sent[k] != v} or None
             if changed:
                 sent.update(changed)
+        if self.error:
+            self.error_sent = True
         return [self.id, vel, frames, changed, self.error]
 
     def fail(self, exc: BaseException | str) -> None:
@@ -202,6 +207,7 @@ class RobotHost:
         self.count = count
         self.robots: dict[int, Robot] = {}
         self.name = ""
+        self.key = b""
         self.run_info: dict = {}
         self.tick = -1
 
@@ -218,6 +224,7 @@ class RobotHost:
                 await asyncio.sleep(0.2)
         info = unpack(reply, what="join reply")
         self.name = info["host"]
+        self.key = info["key"]
         self.run_info = info["run"]
         for descr in info["robots"]:
             self._adopt(descr)
@@ -236,6 +243,10 @@ class RobotHost:
             await self._run_realtime()
 
     # -- inputs common to both clocks -----------------------------------
+    def _uplink(self, msg: dict) -> bytes:
+        """An uplink message, sealed with this host's key (transport.auth)."""
+        return seal(self.key, pack(msg))
+
     def _take_membership(self, msg: dict) -> None:
         for rid in msg.get("dead", ()):
             robot = self.robots.get(rid)
@@ -255,12 +266,14 @@ class RobotHost:
     async def _run_lockstep(self) -> None:
         uplink = self.keys.up(self.name)
         timeout = 24 * 3600.0  # the world's watchdog, not this query, bounds a step
-        msg = unpack(await self.link.query(uplink, pack({"h": self.name, "t": -1, "r": []}), timeout=timeout))
-        while not msg.get("stop"):
+        msg = unpack(await self.link.query(uplink, self._uplink({"h": self.name, "t": -1, "r": []}), timeout=timeout))
+        while not (msg.get("stop") or msg.get("bye")):
             self.tick = msg["t"]
             out = await self._step_lockstep(msg)
-            msg = unpack(await self.link.query(uplink, pack({"h": self.name, "t": self.tick, "r": out}), timeout=timeout))
-        await self._send_reports(uplink)
+            msg = unpack(await self.link.query(uplink, self._uplink({"h": self.name, "t": self.tick, "r": out}),
+                                               timeout=timeout))
+        if not (msg.get("gone") or msg.get("bye")):
+            await self._send_reports(uplink)
 
     async def _step_lockstep(self, msg: dict) -> list:
         self._take_membership(msg)
@@ -272,6 +285,8 @@ class RobotHost:
         for rid, pose, (ids, flat), refs in msg["in"]:
             robot = self.robots.get(rid)
             if robot is None or not robot.alive:
+                if robot is not None and robot.error and not robot.error_sent:
+                    stepped.append(robot)  # tell the world once why this robot is gone
                 continue
             self._set_inputs(robot, pose, now, objects)
             inbox = [frames[k] for k in refs]
@@ -292,7 +307,8 @@ class RobotHost:
     async def _send_reports(self, uplink: str) -> None:
         reports = {rid: r.report() for rid, r in self.robots.items()}
         try:
-            await self.link.query(uplink, pack({"h": self.name, "t": self.tick + 1, "r": [], "rep": reports}), timeout=30.0)
+            await self.link.query(uplink, self._uplink({"h": self.name, "t": self.tick + 1, "r": [], "rep": reports}),
+                                  timeout=30.0)
         except Exception as exc:
             log.warning("final report not acknowledged: %s", exc)
 
@@ -302,7 +318,7 @@ class RobotHost:
         self._stopped = asyncio.Event()
         self._tasks: set[asyncio.Task] = set()
         self.link.subscribe(self.keys.down(self.name), self._on_down)
-        reply = unpack(await self.link.query(uplink, pack({"h": self.name, "t": -1, "r": []}), timeout=30.0))
+        reply = unpack(await self.link.query(uplink, self._uplink({"h": self.name, "t": -1, "r": []}), timeout=30.0))
         self._epoch = reply.get("epoch", time.time())
         await self._stopped.wait()
         for task in list(self._tasks):
@@ -344,6 +360,8 @@ class RobotHost:
             for rid, pose, (ids, flat), _ in msg["in"]:
                 robot = self.robots.get(rid)
                 if robot is None or not robot.alive:
+                    if robot is not None and robot.error and not robot.error_sent:
+                        touched.append(robot)
                     continue
                 self._set_inputs(robot, pose, self._rt_now(), objects)
                 self._rt_run(robot, robot.calls([], SensedView(ids, flat, len(pose) - 1)))
@@ -369,4 +387,4 @@ class RobotHost:
         rows = [r.outputs() for r in dict.fromkeys(robots)]
         rows = [row for row in rows if row[1] is not None or row[2] or row[3] or row[4]]
         if rows:
-            self.link.publish(self.keys.up(self.name), pack({"h": self.name, "t": self.tick, "r": rows}))
+            self.link.publish(self.keys.up(self.name), self._uplink({"h": self.name, "t": self.tick, "r": rows}))

@@ -45,7 +45,10 @@ def split(n: int, k: int) -> list[int]:
 def host_process(endpoint: str, run_id: str, count: int | None) -> None:
     """Entry point of a spawned robot-host process."""
     logging.basicConfig(level=logging.WARNING)
-    asyncio.run(serve_host(Endpoints(mode="peer", connect=[endpoint]), run_id, count))
+    try:
+        asyncio.run(serve_host(Endpoints(mode="peer", connect=[endpoint]), run_id, count))
+    except KeyboardInterrupt:  # Ctrl-C reaches the whole process group; the world ends the run
+        pass
 
 
 async def serve_host(endpoints: Endpoints, run_id: str, count: int | None) -> None:
@@ -200,6 +203,31 @@ def metrics(sc: dict, reports: dict[int, dict]) -> dict:
         except Exception as exc:
             out[key] = {"metrics_error": f"{exc.__class__.__name__}: {exc}"}
     return out
+
+
+def run(scenario: str | Path | dict, *, out: str | Path | None = None, processes: int | None = None,
+        overrides: list[str] = (), **settings) -> Result:
+    """Run a scenario (a TOML path or a dict as parsed from TOML) and return its Result.
+
+    ``settings`` are overrides written ``section__key=value`` (``radio__loss=0.1``,
+    ``run__seed=3``); ``overrides`` takes ``"section.key=value"`` strings as on
+    the command line. Output goes to ``out`` (default ``out/<run.name>``).
+    """
+    from swarmactors.scenario import load, resolve_scenario
+
+    items = list(overrides) + [f"{k.replace('__', '.')}={_toml_value(v)}" for k, v in settings.items()]
+    if isinstance(scenario, dict):
+        sc = resolve_scenario(scenario, "<dict>", items)
+    else:
+        sc = load(scenario, items)
+    k = sc["run"]["processes"] if processes is None else processes
+    out_dir = Path(out) if out is not None else Path("out") / sc["run"]["name"]
+    endpoints = Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"])
+    return asyncio.run(run_world(sc, out_dir, endpoints, new_run_id(sc["run"]["name"]), processes=k))
+
+
+def _toml_value(v) -> str:
+    return json.dumps(v) if not isinstance(v, bool) else ("true" if v else "false")
 
 
 def write_result(data: dict, out_dir: Path) -> Result:

@@ -81,6 +81,10 @@ class Result:
     def robots(self) -> dict[int, dict]:
         return {int(k): v for k, v in self.data["robots"].items()}
 
+    def frames(self, rid: int) -> dict:
+        """Robot ``rid``'s frame counters: sent, received, dropped by cause (as sender)."""
+        return self.data["world"]["per_robot"][str(rid)]
+
     def reports(self, behavior: str) -> dict[int, dict]:
         """Robot id -> that behaviour's report (robots without it are left out)."""
         return {rid: r[behavior] for rid, r in self.robots.items() if isinstance(r.get(behavior), dict)}
@@ -122,16 +126,8 @@ class Result:
         raise KeyError(f"no tick {tick} in the trace")
 
     def ranges(self) -> dict[int, float]:
-        """Each robot's radio range, from the resolved scenario (groups, then added robots)."""
-        out: dict[int, float] = {}
-        sc = self.data["scenario"]
-        for g in sc["robots"]:
-            for _ in g["positions"]:
-                out[len(out)] = g["range"]
-        for e in sc.get("events", []):
-            for spec in e.get("add", []):
-                out[len(out)] = spec["range"]
-        return out
+        """Each robot's radio range (robots added during the run included)."""
+        return {rid: r["range"] for rid, r in self.robots.items()}
 
     def graph_at(self, tick: int, directed: bool = False) -> nx.Graph:
         """The true radio graph at ``tick`` (alive robots; mutual links unless ``directed``)."""

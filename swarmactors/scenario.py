@@ -143,6 +143,7 @@ def resolve_scenario(raw: dict, source: str = "<scenario>", overrides: list[str]
     out["robots"] = [_group(g, f"robots[{i}]", out, source, rng) for i, g in enumerate(groups)]
     _connect_groups(out, source, rng)
     out["events"] = [_event(e, f"events[{i}]", out, source, rng) for i, e in enumerate(raw.get("events", []))]
+    _check_event_ids(out, source)
     out["checks"] = [_check(c, f"checks[{i}]", source) for i, c in enumerate(raw.get("checks", []))]
     out["source"] = source
     return out
@@ -352,11 +353,10 @@ def _event(e: Any, where: str, sc: dict, source: str, rng: np.random.Generator) 
         raise ScenarioError(source, where, "give exactly one action besides 'at'")
     action = actions[0]
     value = e[action]
-    n = sum(g["count"] for g in sc["robots"])
     key = f"{where}.{action}"
     if action == "kill":
         ids = [value] if isinstance(value, int) else value
-        if not isinstance(ids, list) or not all(isinstance(i, int) and 0 <= i < n + 1000 for i in ids):
+        if not isinstance(ids, list) or not ids or not all(type(i) is int for i in ids):
             raise ScenarioError(source, key, f"{value!r} must be a robot id or a list of ids")
         value = ids
     elif action in ("kill_fraction", "loss"):
@@ -380,6 +380,22 @@ def _event(e: Any, where: str, sc: dict, source: str, rng: np.random.Generator) 
     elif action in ("heal", "stop") and value is not True:
         raise ScenarioError(source, key, "must be true")
     return {"at": at, action: value}
+
+
+def _check_event_ids(sc: dict, source: str) -> None:
+    """Robot ids in events must exist when the event applies (robots added earlier count)."""
+    count = sum(g["count"] for g in sc["robots"])
+    order = sorted(range(len(sc["events"])), key=lambda i: sc["events"][i]["at"])
+    for i in order:
+        e = sc["events"][i]
+        if "add" in e:
+            count += len(e["add"])
+        for action in ("kill", "cut", "restore", "partition"):
+            ids = [x for item in e.get(action, []) for x in (item if isinstance(item, list) else [item])]
+            bad = [x for x in ids if not 0 <= x < count]
+            if bad:
+                raise ScenarioError(source, f"events[{i}].{action}",
+                                    f"no robot {bad[0]} at tick {e['at']} (ids 0..{count - 1} exist then)")
 
 
 def _check(c: Any, where: str, source: str) -> dict:

@@ -147,6 +147,8 @@ def iter_trace(path: str | Path) -> Iterator[dict]:
         unpacker = msgpack.Unpacker(f, raw=False, strict_map_key=False, max_buffer_size=1 << 30)
         first = True
         offset = 0
+        if path.stat().st_size == 0:
+            raise TraceError(f"{path}: empty file at byte offset 0 (the run wrote no trace data)")
         while True:
             try:
                 obj = unpacker.unpack()

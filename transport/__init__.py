@@ -4,6 +4,7 @@ It holds the session configuration, the key-expression layout, the msgpack
 wire codec and the bridge from Zenoh's callback threads into asyncio.
 """
 
+from transport.auth import new_key, seal, unseal
 from transport.codec import MalformedMessage, pack, unpack
 from transport.config import Endpoints, make_config
 from transport.keys import Keys
@@ -17,6 +18,9 @@ __all__ = [
     "PendingQuery",
     "QueryError",
     "make_config",
+    "new_key",
+    "seal",
+    "unseal",
     "pack",
     "unpack",
 ]

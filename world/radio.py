@@ -77,6 +77,8 @@ class Medium:
         self.seed = seed
         self.cuts: set[tuple[int, int]] = set()
         self.group: dict[int, int] = {}  # robot -> partition group; absent = group 0
+        self._budget: dict[int, int] = {}  # bytes sent this tick, per robot (bandwidth cap)
+        self._budget_tick = -1
 
     def set_loss(self, loss: float) -> None:
         self.config.loss = loss
@@ -115,9 +117,11 @@ class Medium:
         ``(src, seq, dst, kind, cause)``.
         """
         cfg = self.config
-        deliveries: list[tuple[int, Outgoing]] = []
+        deliveries: list[tuple] = []
         drops: list[tuple[int, int, int, str, str]] = []
-        budget: dict[int, int] = {}
+        if tick != self._budget_tick:  # the cap is per tick, however many uplinks carry the tick's frames
+            self._budget_tick, self._budget = tick, {}
+        budget = self._budget
         n = len(alive)
         for f in frames:
             if f.dst is None:

@@ -20,6 +20,7 @@ class HostEntry:
     robots: set[int] = field(default_factory=set)
     alive: bool = True
     reported: bool = False  # final reports received
+    key: bytes = b""  # per-host uplink authentication key (transport.auth)
 
 
 class Robots:

@@ -35,7 +35,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from transport import Keys, Link, MalformedMessage, PendingQuery, pack, unpack
+from transport import Keys, Link, MalformedMessage, PendingQuery, new_key, pack, unpack, unseal
 from world import rng
 from world.kinematics import integrate
 from world.radio import DROP_CAUSES, Medium, Outgoing, RadioConfig
@@ -45,6 +45,8 @@ from world.sensing import sense, within
 log = logging.getLogger(__name__)
 
 _NOTHING: list = [[], []]
+_INT64 = 1 << 63
+ACTIONS = ("kill", "kill_fraction", "add", "cut", "restore", "partition", "heal", "loss", "move", "stop")
 _BY_DST_SRC_SEQ = itemgetter(0, 1, 2)
 POS_DIGITS = 6  # positions in traces, state and hashes are rounded to 1e-6 length units
 PROTOCOL_VERSION = 1
@@ -123,6 +125,7 @@ class World:
         self._event_idx = 0
         self.control_queue: list[dict] = []
         self.tick = 0
+        self.ticks_done = 0
         self.started = False
         self.finished = False
         self.stop_reason: str | None = None
@@ -177,7 +180,7 @@ class World:
             q.reply_error("the run has finished")
             return
         name = f"h{len(self.hosts)}"
-        host = HostEntry(name)
+        host = HostEntry(name, key=new_key())
         if not self.started:
             take = len(self.unclaimed) if count is None else min(count, len(self.unclaimed))
             ids, self.unclaimed = self.unclaimed[:take], self.unclaimed[take:]
@@ -194,6 +197,7 @@ class World:
             pack(
                 {
                     "host": name,
+                    "key": host.key,
                     "version": PROTOCOL_VERSION,
                     "robots": [self._robot_descr(r) for r in ids],
                     "run": {
@@ -235,22 +239,29 @@ class World:
     # ------------------------------------------------------------ uplink
     def _on_step_query(self, q: PendingQuery) -> None:
         host = self.keys.host_of(q.key)
-        msg = self._decode_up(host, q.payload)
-        if msg is None:
-            q.reply_error("malformed step")
-            return
-        if host not in self.hosts or not self.hosts[host].alive:
+        entry = self.hosts.get(host)
+        if entry is not None and not entry.alive:
             q.reply(pack({"stop": True, "t": self.tick, "in": [], "gone": True}))
             return
-        if msg.get("rep") is not None:
-            self._take_reports(host, msg["rep"])
+        msg = self._decode_up(host, q.payload)
+        if msg is None:
+            q.reply_error("malformed or unauthenticated step")
+            return
         if self.clock == "realtime":
+            if msg.get("rep") is not None:
+                self._take_reports(host, msg["rep"])
             self._absorb(host, msg)
             q.reply(pack({"ok": True, "epoch": self.epoch}))
             if msg["t"] == -1:
                 self._held[host] = (-1, None, {})
                 self._check_ready()
             return
+        if host in self._held:  # one step per host per tick: a second one is a replay or a forgery
+            self._malformed(None, f"second step from {host} while one is pending (tick {msg['t']})")
+            q.reply_error("a step from this host is already pending")
+            return
+        if msg.get("rep") is not None:
+            self._take_reports(host, msg["rep"])
         self._held[host] = (msg["t"], q, msg)
         if not self.started:
             self._check_ready()
@@ -259,27 +270,32 @@ class World:
 
     def _on_up_put(self, key: str, payload: bytes) -> None:
         host = self.keys.host_of(key)
+        entry = self.hosts.get(host)
+        if entry is not None and not entry.alive:
+            return
         msg = self._decode_up(host, payload)
         if msg is None:
             return
         if self.clock != "realtime":
             self._malformed(None, f"put on up/{host} in lockstep (steps must be queries)")
             return
-        if host not in self.hosts or not self.hosts[host].alive:
-            return
         if msg.get("rep") is not None:
             self._take_reports(host, msg["rep"])
         self._absorb(host, msg)
 
     def _decode_up(self, host: str, payload: bytes) -> dict | None:
+        """Verify (per-host key) and decode an uplink; count and return None when it is bad."""
         try:
-            msg = unpack(payload, what=f"uplink from {host}")
+            entry = self.hosts.get(host)
+            if entry is None:
+                raise MalformedMessage(f"uplink on up/{host}: no such host joined")
+            msg = unpack(unseal(entry.key, payload, what=f"uplink on up/{host}"), what=f"uplink from {host}")
             if not isinstance(msg, dict):
                 raise MalformedMessage(f"uplink from {host} is not a map")
             if msg.get("h") != host:
                 raise MalformedMessage(f"uplink on up/{host} claims host {msg.get('h')!r}")
             t = msg.get("t")
-            if not isinstance(t, int) or isinstance(t, bool):
+            if type(t) is not int:
                 raise MalformedMessage(f"uplink from {host} has tick {t!r}")
             if not isinstance(msg.get("r", []), list):
                 raise MalformedMessage(f"uplink from {host} has a non-list robot section")
@@ -300,8 +316,9 @@ class World:
         owned = self.hosts[host].robots
         frames: list[Outgoing] = []
         for entry in msg.get("r", []):
-            if not (isinstance(entry, list) and len(entry) == 5 and isinstance(entry[0], int)):
-                self._malformed(None, f"robot record from {host} is not [id, vel, frames, status, error]")
+            if not (isinstance(entry, list) and len(entry) == 5 and type(entry[0]) is int
+                    and isinstance(entry[2], list)):
+                self._malformed(None, f"robot record from {host} is not [id, vel, [frames], status, error]")
                 continue
             rid, vel, out, status, err = entry
             if rid not in owned:
@@ -316,12 +333,12 @@ class World:
             if vel is not None:
                 self._set_velocity(rid, vel)
             if status:
-                if isinstance(status, dict):
+                if isinstance(status, dict) and all(type(k) is str for k in status):
                     self.robots.status[rid].update(status)
                     self._rec.setdefault("status", {})[rid] = status
                 else:
-                    self._malformed(rid, f"status of robot {rid} is not a map")
-            for f in out or ():
+                    self._malformed(rid, f"status of robot {rid} is not a map with string keys")
+            for f in out:
                 frame = self._check_frame(rid, f)
                 if frame is not None:
                     frames.append(frame)
@@ -347,15 +364,14 @@ class World:
             return None
         dst, kind, seq, body, exclude = f
         ok = (
-            (dst is None or (isinstance(dst, int) and not isinstance(dst, bool)))
+            (dst is None or (type(dst) is int and 0 <= dst < _INT64))
             and isinstance(kind, str)
             and 0 < len(kind) <= 64
-            and isinstance(seq, int)
-            and not isinstance(seq, bool)
-            and seq > self._seq_seen.get(src, -1)
+            and type(seq) is int
+            and self._seq_seen.get(src, -1) < seq < _INT64
             and isinstance(body, bytes)
             and isinstance(exclude, list)
-            and all(isinstance(x, int) for x in exclude)
+            and all(type(x) is int and 0 <= x < _INT64 for x in exclude)
         )
         if not ok:
             self._malformed(src, f"bad frame header from robot {src}: dst={dst!r} kind={kind!r} seq={seq!r}")
@@ -431,9 +447,9 @@ class World:
             f = frames[key]
             lat = self.medium.latencies_s(self.tick, f.src, f.seq, np.array(dsts))
             for dst, delay in zip(dsts, lat.tolist()):
-                loop.call_later(delay, self._rt_deliver, dst, f, sent_at)
+                loop.call_later(delay, self._rt_deliver, dst, f, sent_at, self.tick)
 
-    def _rt_deliver(self, dst: int, f: Outgoing, sent_at: float) -> None:
+    def _rt_deliver(self, dst: int, f: Outgoing, sent_at: float, sent_tick: int) -> None:
         if self.finished:
             return
         if not self.robots.alive[dst]:
@@ -445,7 +461,7 @@ class World:
             return
         self.counters.delivered += 1
         self.counters.received_by[dst] += 1
-        self._rec.setdefault("del", []).append([f.src, f.seq, dst, self.tick])
+        self._rec.setdefault("del", []).append([f.src, f.seq, dst, sent_tick])
         self._rt_deliveries[host].append([dst, f.src, f.kind, f.seq, f.body, sent_at])
         if host not in self._rt_flush_scheduled:
             self._rt_flush_scheduled.add(host)
@@ -480,13 +496,12 @@ class World:
 
     def apply(self, action: dict, source: str) -> str | None:
         """Apply one scenario event or control command now; return an error text or None."""
-        n = len(self.robots)
+        problem = self.check_action(action)
+        if problem:
+            return problem
         if "kill" in action:
             ids = action["kill"]
-            ids = [ids] if isinstance(ids, int) else ids
-            bad = [i for i in ids if not (isinstance(i, int) and 0 <= i < n)]
-            if bad:
-                return f"kill: no robot {bad}"
+            ids = [ids] if type(ids) is int else ids
             self._event({"kill": ids, "source": source})
             for rid in ids:
                 self._crash(rid, "killed")
@@ -499,10 +514,7 @@ class World:
             for rid in ids:
                 self._crash(rid, "killed")
         elif "add" in action:
-            specs = action["add"]
-            if not isinstance(specs, list) or not all(isinstance(s, dict) and "pos" in s for s in specs):
-                return "add: expected a list of robot specs with 'pos'"
-            ids = self._add_robots(specs, source)
+            ids = self._add_robots(action["add"], source)
             for rid in ids:
                 host = self._least_loaded_host()
                 if host is None:
@@ -514,8 +526,6 @@ class World:
         elif "cut" in action or "restore" in action:
             verb = "cut" if "cut" in action else "restore"
             pairs = action[verb]
-            if not all(isinstance(p, list) and len(p) == 2 for p in pairs):
-                return f"{verb}: expected a list of [a, b] pairs"
             for a, b in pairs:
                 (self.medium.cut if verb == "cut" else self.medium.restore)(a, b)
             self._event({verb: pairs, "source": source})
@@ -527,22 +537,53 @@ class World:
             self._event({"heal": True, "source": source})
         elif "loss" in action:
             p = action["loss"]
-            if not (isinstance(p, (int, float)) and 0.0 <= p <= 1.0):
-                return f"loss: {p!r} is not in [0, 1]"
             self.medium.set_loss(float(p))
             self._event({"loss": float(p), "source": source})
         elif "move" in action:
             mv = action["move"]
-            name = mv.get("object") if isinstance(mv, dict) else None
-            if name not in self.objects:
-                return f"move: no world object {name!r} (have {sorted(self.objects)})"
+            name = mv["object"]
             self.objects[name] = list(map(float, mv["pos"]))
             self._event({"move": {"object": name, "pos": self.objects[name]}, "source": source})
         elif "stop" in action:
             self.request_stop(f"stopped by {source}")
-        else:
-            return f"unknown action {sorted(action)}"
         return None
+    def check_action(self, action: dict) -> str | None:
+        """Why ``action`` (one event or control command) cannot be applied now, or None."""
+        if len(action) != 1 or next(iter(action)) not in ACTIONS:
+            return f"unknown command {sorted(action)} (known: {', '.join(ACTIONS)})"
+        ((name, value),) = action.items()
+        n = len(self.robots)
+
+        def robot_id(x) -> bool:
+            return type(x) is int and 0 <= x < n
+
+        def probability(x) -> bool:
+            return type(x) in (int, float) and 0.0 <= x <= 1.0
+
+        def point(p) -> bool:
+            return (isinstance(p, list) and 1 <= len(p) <= self.dims
+                    and all(type(v) in (int, float) and math.isfinite(v) for v in p))
+
+        if name == "kill":
+            ids = [value] if type(value) is int else value
+            if not (isinstance(ids, list) and ids and all(robot_id(i) for i in ids)):
+                return f"kill: {value!r} is not a robot id or a list of robot ids (0..{n - 1})"
+        elif name in ("kill_fraction", "loss") and not probability(value):
+            return f"{name}: {value!r} is not in [0, 1]"
+        elif name == "add" and not (isinstance(value, list) and value and all(
+                isinstance(s, dict) and point(s.get("pos")) for s in value)):
+            return "add: expected a list of robot specs, each with pos = [x, y]"
+        elif name in ("cut", "restore") and not (isinstance(value, list) and all(
+                isinstance(p, list) and len(p) == 2 and all(robot_id(i) for i in p) for p in value)):
+            return f"{name}: expected a list of [a, b] robot id pairs"
+        elif name == "partition" and not (isinstance(value, list) and all(
+                isinstance(g, list) and all(robot_id(i) for i in g) for g in value)):
+            return "partition: expected a list of lists of robot ids"
+        elif name == "move" and not (isinstance(value, dict) and value.get("object") in self.objects
+                                     and point(value.get("pos"))):
+            return f"move: expected {{object, pos}} with object one of {sorted(self.objects)}"
+        return None
+
 
     def _least_loaded_host(self) -> str | None:
         live = [h for h in self._live_hosts_entries()]
@@ -585,45 +626,45 @@ class World:
 
     # ------------------------------------------------------------ control
     def _on_control(self, q: PendingQuery) -> None:
+        """Answer one control command; a bad one is refused, counted, and changes nothing."""
         try:
             cmd = unpack(q.payload, what="control command")
             if not isinstance(cmd, dict) or not isinstance(cmd.get("cmd"), str):
                 raise MalformedMessage("control command must be a map with a 'cmd' string")
-        except MalformedMessage as exc:
-            q.reply(pack({"ok": False, "error": str(exc)}))
-            return
-        name = cmd["cmd"]
+            answer = self._control(cmd["cmd"], cmd)
+        except (MalformedMessage, ValueError, TypeError) as exc:
+            self._malformed(None, f"control: {exc}")
+            answer = {"ok": False, "error": str(exc)}
+        q.reply(pack(answer))
+
+    def _control(self, name: str, cmd: dict) -> dict:
         if name == "status":
-            q.reply(pack({"ok": True, **self.status()}))
-        elif name == "pause":
-            self._resume.clear()
-            q.reply(pack({"ok": True, "tick": self.tick}))
-        elif name == "resume":
-            self._pause_at = None
-            self._resume.set()
-            q.reply(pack({"ok": True, "tick": self.tick}))
-        elif name in ("step", "run_to"):
-            target = self.tick + 1 if name == "step" else int(cmd.get("tick", self.tick))
+            return {"ok": True, **self.status()}
+        if name == "stop":
+            self.request_stop("stopped by control")
+            return {"ok": True}
+        if name in ("pause", "resume", "step", "run_to"):
+            if self.clock != "lockstep":
+                raise ValueError(f"{name} needs the lockstep clock (this run is {self.clock})")
+            if name == "pause":
+                self._resume.clear()
+                return {"ok": True, "tick": self.tick}
+            if name == "resume":
+                self._pause_at = None
+                self._resume.set()
+                return {"ok": True, "tick": self.tick}
+            target = self.tick + 1 if name == "step" else cmd.get("tick")
+            if type(target) is not int or target < 0:
+                raise ValueError(f"run_to: tick {target!r} is not a non-negative integer")
             self._pause_at = target
             self._resume.set()
-            q.reply(pack({"ok": True, "until": target}))
-        elif name == "stop":
-            self.request_stop("stopped by control")
-            q.reply(pack({"ok": True}))
-        else:
-            action = {name: cmd.get("args", True)}
-            probe = self._validate_action(action)
-            if probe:
-                q.reply(pack({"ok": False, "error": probe}))
-            else:
-                self.control_queue.append(action)
-                q.reply(pack({"ok": True, "at": self.tick + 1 if self.started else 0}))
-
-    def _validate_action(self, action: dict) -> str | None:
-        known = {"kill", "kill_fraction", "add", "cut", "restore", "partition", "heal", "loss", "move"}
-        if not set(action) <= known:
-            return f"unknown command {sorted(action)[0]!r}"
-        return None
+            return {"ok": True, "until": target}
+        action = {name: cmd.get("args", True)}
+        problem = self.check_action(action)
+        if problem:
+            raise ValueError(problem)
+        self.control_queue.append(action)
+        return {"ok": True, "at": self.tick + 1 if self.started else 0}
 
     def status(self) -> dict:
         return {
@@ -653,8 +694,12 @@ class World:
 
     # ------------------------------------------------------------ the tick
     def _begin_tick(self) -> None:
-        """Steps 1-2: events, then reach and sensing from this tick's positions."""
-        self._rec = {"t": self.tick}
+        """Steps 1-2: events, then reach and sensing from this tick's positions.
+
+        What happened between two ticks (malformed input, hosts lost) was
+        collected in ``_rec`` already and goes into this tick's record.
+        """
+        self._rec["t"] = self.tick
         self._apply_due_events()
         alive = self.robots.alive_ids()
         self._reach = within(self.robots.pos, alive, self.robots.range)
@@ -706,7 +751,8 @@ class World:
         self._rec["pos"] = [
             [rid, *row] for rid, row in zip(alive.tolist(), np.round(self.robots.pos[alive], POS_DIGITS).tolist())
         ]
-        rec = self._rec
+        rec, self._rec = self._rec, {}
+        self.ticks_done = self.tick + 1
         for sink in self.sinks:
             sink.record(rec)
         if self.state_every and self.tick % self.state_every == 0:
@@ -732,8 +778,10 @@ class World:
         return [h.name for h in self._live_hosts_entries()]
 
     def _all_in(self) -> bool:
+        """Every live host has a step pending for the awaited tick (or has just joined: tick -1)."""
         return all(
-            h in self._held and self._held[h][0] >= self._awaited_tick for h in self._live_hosts()
+            h in self._held and (self._held[h][0] >= self._awaited_tick or self._held[h][0] == -1)
+            for h in self._live_hosts()
         )
 
     async def _wait_ready(self) -> None:
@@ -778,15 +826,14 @@ class World:
             self._barrier.clear()
             for host in self._live_hosts():
                 _, q, _ = self._held.pop(host)
-                q.reply(pack(self._inputs_for(host, inbox)))
+                if q is not None:
+                    q.reply(pack(self._inputs_for(host, inbox)))
             await self._await_barrier()
             for host in sorted(self._live_hosts()):
-                t, _, msg = self._held[host]
+                t, _, msg = self._held.get(host, (None, None, None))
                 if t == k:
                     self._absorb(host, msg)
             self._end_tick()
-        else:
-            self.tick = self.ticks
 
     async def _await_barrier(self) -> None:
         """Wait for every live host's step; a host silent past the watchdog loses its robots."""
@@ -818,8 +865,6 @@ class World:
                 except TimeoutError:
                     pass
             self._end_tick()
-        else:
-            self.tick = self.ticks
 
     async def _collect_reports(self) -> None:
         """Tell every live host to stop and wait (bounded) for its robots' reports."""
@@ -861,18 +906,17 @@ class World:
                 "joined_at": self.robots.joined_at[rid],
                 "failed": None if death is None else {"tick": death.tick, "cause": death.cause, "error": death.error},
                 "status": self.robots.status[rid],
-                "frames": {
-                    "sent": c.sent_by.get(rid, 0),
-                    "received": c.received_by.get(rid, 0),
-                    "dropped": dict(c.dropped_by.get(rid, {})),
-                },
+                "range": float(self.robots.range[rid]),
+                "sensing": float(self.robots.sensing[rid]),
             }
         return {
-            "ticks": self.tick,
+            "ticks": self.ticks_done,
             "wall_s": self.wall_s,
             "stop_reason": self.stop_reason,
             "robots": robots,
             "reports": self.reports,
-            "world": c.as_dict(),
+            "world": {**c.as_dict(), "per_robot": {
+                rid: {"sent": c.sent_by.get(rid, 0), "received": c.received_by.get(rid, 0),
+                      "dropped": dict(c.dropped_by.get(rid, {}))} for rid in range(len(self.robots))}},
             "objects": self.objects,
         }
