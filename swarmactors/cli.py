@@ -21,7 +21,12 @@ from swarmactors.launcher import new_run_id, run_world, serve_host
 from swarmactors.plugins import BEHAVIORS, resolve
 from swarmactors.progress import RunProgress, summary_table
 from swarmactors.scenario import ScenarioError
-from transport import Endpoints, Keys
+from transport import Endpoints, Keys, Security, ensure_files
+
+INSECURE_WARNING = (
+    "warning: running without --secure: anyone who can reach {where} can join this run, publish frames "
+    "as a robot host and read the swarm's traffic (see docs/security.md)"
+)
 
 EXIT_OK, EXIT_CHECK, EXIT_INPUT, EXIT_RUNTIME, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
@@ -61,12 +66,17 @@ def build_parser() -> argparse.ArgumentParser:
     world.add_argument("--connect", action="append", default=[], help="Zenoh endpoint to connect to (repeatable)")
     world.add_argument("--mode", choices=["peer", "router"], default="router")
     world.add_argument("--run-id", default="swarm", help="run id shared with the robot hosts (default: swarm)")
+    world.add_argument("--secure", type=Path, metavar="DIR",
+                       help="TLS, a join credential and access control; certificates are made in DIR if missing")
+    world.add_argument("--tls-name", action="append", default=[],
+                       help="extra DNS name or IP address for the world's certificate (repeatable)")
 
     robots = sub.add_parser("robots", help="run a robot host that joins a world")
     robots.add_argument("--connect", action="append", required=True, help="the world's Zenoh endpoint")
     robots.add_argument("--run-id", default="swarm")
     robots.add_argument("--count", type=int, help="robots to ask for (default: all unclaimed)")
     robots.add_argument("--mode", choices=["peer", "client"], default="client")
+    robots.add_argument("--secure", type=Path, metavar="DIR", help="directory with ca.pem and host.credential")
     return p
 
 
@@ -78,13 +88,16 @@ def main(argv: list[str] | None = None) -> int:
     _user_modules_importable(getattr(args, "scenario", None))
     try:
         if args.command == "robots":
-            return _robots(args)
+            return _robots(args)  # bad credentials files raise ValueError: exit 2
         sc = _load(args)
     except (ScenarioError, UsageError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)  # plain text: paths and keys must not be wrapped
         return EXIT_INPUT
     try:
         return _run(args, sc, err)
+    except UsageError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
     except (RuntimeError, OSError) as exc:
         print(f"run failed: {exc}", file=sys.stderr)
         return EXIT_RUNTIME
@@ -113,9 +126,9 @@ def _load(args) -> dict:
 def _run(args, sc: dict, err: Console) -> int:
     out_dir = args.out or Path("out") / sc["run"]["name"]
     if args.command == "world":
-        endpoints = Endpoints(mode=args.mode, listen=args.listen or ["tcp/0.0.0.0:7447"], connect=args.connect)
         run_id, local = args.run_id, False
         Keys(run_id)
+        endpoints = _world_endpoints(args, run_id)
     else:
         endpoints = Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"])
         run_id, local = new_run_id(sc["run"]["name"]), True
@@ -141,6 +154,20 @@ def _run(args, sc: dict, err: Console) -> int:
     return EXIT_OK if result.passed else EXIT_CHECK
 
 
+def _world_endpoints(args, run_id: str) -> Endpoints:
+    if args.secure is None:
+        listen = args.listen or ["tcp/0.0.0.0:7447"]
+        print(INSECURE_WARNING.format(where=", ".join(listen)), file=sys.stderr)
+        return Endpoints(mode=args.mode, listen=listen, connect=args.connect)
+    listen = args.listen or ["tls/0.0.0.0:7447"]
+    plain = [ep for ep in listen if not ep.startswith("tls/")]
+    if plain:
+        raise UsageError(f"--listen {plain[0]}: with --secure the world listens on tls/HOST:PORT only")
+    ensure_files(args.secure, args.tls_name)
+    security = Security("world", args.secure)
+    return Endpoints(mode="router", listen=listen, connect=args.connect, extra=security.zenoh_settings(run_id))
+
+
 def _plot_field(sc: dict) -> str | None:
     for g in sc["robots"]:
         for b in g["behaviors"]:
@@ -154,7 +181,8 @@ def _robots(args) -> int:
     if args.count is not None and args.count < 1:
         raise UsageError(f"--count {args.count}: must be >= 1")
     Keys(args.run_id)
-    endpoints = Endpoints(mode=args.mode, connect=args.connect)
+    extra = Security("host", args.secure).zenoh_settings(args.run_id) if args.secure else {}
+    endpoints = Endpoints(mode=args.mode, connect=args.connect, extra=extra)
     asyncio.run(serve_host(endpoints, args.run_id, args.count))
     return EXIT_OK
 

@@ -9,6 +9,7 @@ from transport.codec import MalformedMessage, pack, unpack
 from transport.config import Endpoints, make_config
 from transport.keys import Keys
 from transport.link import Link, PendingQuery, QueryError
+from transport.security import Security, ensure_files
 
 __all__ = [
     "Endpoints",
@@ -17,6 +18,8 @@ __all__ = [
     "MalformedMessage",
     "PendingQuery",
     "QueryError",
+    "Security",
+    "ensure_files",
     "make_config",
     "new_key",
     "seal",

@@ -35,7 +35,7 @@ class Endpoints:
     mode: str = "peer"
     listen: list[str] = field(default_factory=list)
     connect: list[str] = field(default_factory=list)
-    extra: dict[str, object] = field(default_factory=dict)  # dotted Zenoh config keys
+    extra: dict[str, object] = field(default_factory=dict)  # slash-separated Zenoh config keys
 
     def __post_init__(self) -> None:
         if self.mode not in _MODES:
@@ -56,5 +56,5 @@ def make_config(endpoints: Endpoints) -> zenoh.Config:
         # Keep retrying while the world starts up, rather than failing at once.
         cfg.insert_json5("connect/timeout_ms", "30000")
     for key, value in endpoints.extra.items():
-        cfg.insert_json5(key.replace(".", "/"), json.dumps(value))
+        cfg.insert_json5(key, json.dumps(value))
     return cfg
