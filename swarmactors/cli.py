@@ -168,6 +168,17 @@ def _world_endpoints(args, run_id: str) -> Endpoints:
     return Endpoints(mode="router", listen=listen, connect=args.connect, extra=security.zenoh_settings(run_id))
 
 
+def _wait_for(path: Path, seconds: float) -> None:
+    """Wait for a file the world creates (the credential in a shared volume); error if it never comes."""
+    import time
+
+    deadline = time.monotonic() + seconds
+    while not path.exists():
+        if time.monotonic() > deadline:
+            raise UsageError(f"{path}: no such file (the world's --secure directory?)")
+        time.sleep(0.2)
+
+
 def _plot_field(sc: dict) -> str | None:
     for g in sc["robots"]:
         for b in g["behaviors"]:
@@ -181,6 +192,8 @@ def _robots(args) -> int:
     if args.count is not None and args.count < 1:
         raise UsageError(f"--count {args.count}: must be >= 1")
     Keys(args.run_id)
+    if args.secure:
+        _wait_for(args.secure / "host.credential", seconds=60)
     extra = Security("host", args.secure).zenoh_settings(args.run_id) if args.secure else {}
     endpoints = Endpoints(mode=args.mode, connect=args.connect, extra=extra)
     asyncio.run(serve_host(endpoints, args.run_id, args.count))

@@ -33,21 +33,24 @@ def image():
 
 
 def compose_up(compose, scenario: Path, out: Path, replicas: int, per_host: int, clock="lockstep",
-               on_running=None) -> tuple[int, str]:
+               on_running=None, secure=False) -> tuple[int, str]:
     project = f"sa{uuid.uuid4().hex[:8]}"
     env = {**os.environ, "SCENARIO": str(scenario), "OUT": str(out), "ROBOTS_PER_HOST": str(per_host),
            "CLOCK": clock, "RUN_ID": project}
     base = [*compose, "-p", project, "-f", str(COMPOSE_FILE)]
     try:
-        proc = subprocess.Popen([*base, "up", "--scale", f"robots={replicas}", "--abort-on-container-exit",
-                                 "--exit-code-from", "world"], env=env, stdout=subprocess.PIPE,
-                                stderr=subprocess.STDOUT, text=True)
+        world, robots = ("world-secure", "robots-secure") if secure else ("world", "robots")
+        profile = ["--profile", "secure"] if secure else []
+        proc = subprocess.Popen([*base, *profile, "up", "--scale", f"{robots}={replicas}",
+                                 "--abort-on-container-exit", "--exit-code-from", world, world, robots], env=env,
+                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         if on_running:
             threading.Thread(target=on_running, args=(base, env), daemon=True).start()
         logs, _ = proc.communicate(timeout=300)
         return proc.returncode, logs
     finally:
-        subprocess.run([*base, "down", "--remove-orphans", "-t", "2"], env=env, capture_output=True, timeout=120)
+        subprocess.run([*base, "--profile", "secure", "down", "--volumes", "--remove-orphans", "-t", "2"], env=env,
+                       capture_output=True, timeout=120)
 
 
 def single_process(scenario: Path, out: Path, *extra: str) -> dict:
@@ -113,3 +116,16 @@ def test_killing_a_robot_container_fails_its_robots_and_the_run_goes_on(image, t
     assert result["ticks"] == 80
     survivors = [r for r in result["robots"].values() if r["alive"]]
     assert len(survivors) == 6 and all(r["beacon"]["heard"] > 0 for r in survivors)
+
+
+def test_compose_secure_profile_runs_over_tls_with_the_credential(image, tmp_path):
+    scenario = REPO / "scenarios" / "flooding.toml"
+    out = tmp_path / "secure"
+    out.mkdir()
+    code, logs = compose_up(image, scenario, out, replicas=3, per_host=10, secure=True)
+    assert code == 0, logs[-3000:]
+    got = json.loads((out / "result.json").read_text())
+    ref = single_process(scenario, tmp_path / "single")
+    assert {r["host"] for r in got["robots"].values()} == {"h0", "h1", "h2"}
+    assert got["trace_hash"] == ref["trace_hash"]
+    assert "running without --secure" not in logs
