@@ -411,12 +411,7 @@ class CBAA(Behavior):
 
 # ------------------------------------------------------------------ oracle
 def _params(result: Result) -> dict:
-    for g in result["scenario"]["robots"]:
-        for b in g["behaviors"]:
-            if b["use"] in ("cbaa", "protocols.cbaa:CBAA"):
-                return {"at": 0, "score": "inverse", "scale": 1.0, "scores": None} | {
-                    k: v for k, v in b.items() if k != "use"}
-    raise ValueError("no cbaa behaviour in this scenario")
+    return result.behavior_params("cbaa")
 
 
 def _start_tick(result: Result, at: int) -> int:

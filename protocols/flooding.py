@@ -128,11 +128,7 @@ class Flooding(Behavior):
 
 # ---------------------------------------------------------------- oracle checks
 def _params(result: Result) -> dict:
-    for g in result["scenario"]["robots"]:
-        for b in g["behaviors"]:
-            if b["use"] in ("flooding", "protocols.flooding:Flooding"):
-                return {"origin": 0, "at": 0, "expiry": None, "hops": None} | {k: v for k, v in b.items() if k != "use"}
-    raise ValueError("no flooding behaviour in this scenario")
+    return result.behavior_params("flooding")
 
 
 def _receivers(result: Result, behavior: str = "flooding") -> dict[int, dict]:

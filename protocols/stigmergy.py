@@ -754,14 +754,6 @@ class StigmergyElection(Behavior):
 
 
 # ------------------------------------------------------------------ oracle checks
-def _behavior_params(result: Result, names: tuple[str, ...]) -> dict:
-    for g in result["scenario"]["robots"]:
-        for b in g["behaviors"]:
-            if b["use"] in names:
-                return {k: v for k, v in b.items() if k != "use"}
-    raise ValueError(f"no {names[0]} behaviour in this scenario")
-
-
 def _last_tick(result: Result) -> int:
     return result.trace[-1]["t"]
 
@@ -772,7 +764,7 @@ def oracle_tables(result: Result, behavior: str = "stigmergy", graph: nx.Graph |
     For each key: among the writes by robots of the component, the highest
     timestamp; among those, the winner of the conflict rule (folded pairwise).
     """
-    params = _behavior_params(result, (behavior, "protocols.stigmergy:StigmergyScript"))
+    params = result.behavior_params(behavior)
     rule = conflict_rule(params.get("conflict", "higher_id"))
     reports = result.reports(behavior)
     g = graph if graph is not None else result.graph_at(_last_tick(result))
@@ -844,7 +836,7 @@ def oracle_elections(result: Result, behavior: str = "election") -> dict[int, di
 
     With ``exclusive``, one election after the other, without the earlier winners.
     """
-    params = _behavior_params(result, (behavior, "protocols.stigmergy:StigmergyElection"))
+    params = result.behavior_params(behavior)
     start, duration = params.get("start", 1), params.get("duration", 20)
     exclusive = params.get("exclusive", True)
     specs = params["elections"]

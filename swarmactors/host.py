@@ -40,6 +40,7 @@ class Robot:
         self.ctx._encode = pack
         self.ctx.pose = np.array(descr["pose"], dtype=float)
         self.behaviors: list[Behavior] = []
+        self.report_names: list[str] = []  # the name each behaviour's report goes under
         self.started = False
         self.error: str | None = None
         self.error_sent = False
@@ -48,11 +49,10 @@ class Robot:
         self.bad_bodies = 0
         try:
             for spec in descr.get("behaviors", []):
-                params = {k: v for k, v in spec.items() if k != "use"}
+                params = {k: v for k, v in spec.items() if k not in ("use", "as")}
                 b = resolve(BEHAVIORS, spec["use"])(**params)
-                if not type(b).name:
-                    type(b).name = spec["use"]
                 self.behaviors.append(b)
+                self.report_names.append(spec.get("as") or type(b).name or spec["use"])
         except Exception as exc:  # a behaviour that cannot be built crashes its robot, not the host
             self.fail(exc)
         self._catch_all = [b.on_frame for b in self.behaviors if not b.kinds]
@@ -122,11 +122,11 @@ class Robot:
 
     def report(self) -> dict:
         rep: dict[str, Any] = {}
-        for b in self.behaviors:
+        for name, b in zip(self.report_names, self.behaviors):
             try:
-                rep[type(b).name] = b.report()
+                rep[name] = b.report()
             except Exception as exc:  # a broken report must not lose the others
-                rep[type(b).name] = {"report_error": f"{exc.__class__.__name__}: {exc}"}
+                rep[name] = {"report_error": f"{exc.__class__.__name__}: {exc}"}
         if self.error:
             rep["_error"] = self.error
         if self.ctx.logs:

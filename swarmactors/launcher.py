@@ -193,10 +193,9 @@ def metrics(sc: dict, reports: dict[int, dict]) -> dict:
     from swarmactors.plugins import BEHAVIORS, resolve
 
     out = {}
-    names = {b["use"] for g in sc["robots"] for b in g["behaviors"]}
-    for name in sorted(names):
-        cls = resolve(BEHAVIORS, name)
-        key = cls.name or name
+    specs = {b["as"]: b["use"] for g in sc["robots"] for b in g["behaviors"]}
+    for key, use in sorted(specs.items()):
+        cls = resolve(BEHAVIORS, use)
         per_robot = {rid: rep[key] for rid, rep in reports.items() if isinstance(rep.get(key), dict)}
         try:
             out[key] = cls.metrics(per_robot)

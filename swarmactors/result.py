@@ -81,6 +81,21 @@ class Result:
     def robots(self) -> dict[int, dict]:
         return {int(k): v for k, v in self.data["robots"].items()}
 
+    def behavior_params(self, name: str) -> dict:
+        """The parameters of the behaviour whose report goes under ``name``, defaults filled in."""
+        import inspect
+
+        from swarmactors.plugins import BEHAVIORS, resolve
+
+        for g in self.data["scenario"]["robots"]:
+            for spec in g["behaviors"]:
+                if spec.get("as") == name:
+                    sig = inspect.signature(resolve(BEHAVIORS, spec["use"]))
+                    defaults = {k: p.default for k, p in sig.parameters.items()
+                                if p.default is not inspect.Parameter.empty}
+                    return defaults | {k: v for k, v in spec.items() if k not in ("use", "as")}
+        raise KeyError(f"no behaviour reports as {name!r} in this scenario")
+
     def frames(self, rid: int) -> dict:
         """Robot ``rid``'s frame counters: sent, received, dropped by cause (as sender)."""
         return self.data["world"]["per_robot"][str(rid)]

@@ -321,13 +321,17 @@ def undirected_graph(pos: np.ndarray, ranges: np.ndarray, ids: list[int] | None 
 
 
 def _behavior(b: Any, where: str, source: str) -> dict:
+    """A behaviour spec: ``use`` (short name or module:Class), optional ``as`` (the name its
+    report goes under; default the class's ``name``, else ``use``), then its parameters."""
     if not isinstance(b, dict) or not isinstance(b.get("use"), str):
         raise ScenarioError(source, where, 'must be a table with use = "name" or "module:Class"')
+    if "as" in b and not (isinstance(b["as"], str) and b["as"]):
+        raise ScenarioError(source, f"{where}.as", f"{b['as']!r} must be a non-empty string")
     try:
         cls = resolve(BEHAVIORS, b["use"])
     except PluginError as exc:
         raise ScenarioError(source, f"{where}.use", str(exc)) from None
-    params = {k: v for k, v in b.items() if k != "use"}
+    params = {k: v for k, v in b.items() if k not in ("use", "as")}
     problem = check_params(cls, params)
     if problem:
         raise ScenarioError(source, where, f"{b['use']}: {problem}")
@@ -336,7 +340,7 @@ def _behavior(b: Any, where: str, source: str) -> dict:
         problem = validate(params)
         if problem:
             raise ScenarioError(source, where, f"{b['use']}: {problem}")
-    return dict(b)
+    return {"use": b["use"], "as": b.get("as") or getattr(cls, "name", "") or b["use"], **params}
 
 
 def _event(e: Any, where: str, sc: dict, source: str, rng: np.random.Generator) -> dict:
@@ -413,6 +417,32 @@ def _check(c: Any, where: str, source: str) -> dict:
     except TypeError as exc:
         raise ScenarioError(source, where, f"{c['use']}: {exc}") from None
     return dict(c)
+
+
+def to_raw(sc: dict) -> dict:
+    """A resolved scenario back in file form (explicit positions): running it reproduces the run."""
+    raw: dict[str, Any] = {}
+    for section in ("run", "radio", "world"):
+        raw[section] = {k: v for k, v in sc[section].items() if v is not None and v != []}
+    raw["run"].pop("duration", None)
+    groups = []
+    for g in sc["robots"]:
+        groups.append({k: v for k, v in g.items()
+                       if v is not None and k not in ("count", "placement", "area", "connected", "spacing")})
+    raw["robots"] = groups
+    events = []
+    for e in sc["events"]:
+        if "add" in e:
+            specs = e["add"]
+            common = {k: v for k, v in specs[0].items() if k != "pos"}
+            events.append({"at": e["at"], "add": {"positions": [s["pos"] for s in specs], **common}})
+        else:
+            events.append(dict(e))
+    if events:
+        raw["events"] = events
+    if sc["checks"]:
+        raw["checks"] = [dict(c) for c in sc["checks"]]
+    return raw
 
 
 def expand_group(grp: dict) -> list[dict]:
