@@ -71,6 +71,20 @@ def build_parser() -> argparse.ArgumentParser:
     world.add_argument("--tls-name", action="append", default=[],
                        help="extra DNS name or IP address for the world's certificate (repeatable)")
 
+    chk = sub.add_parser("check", help="run a protocol family's conformance suite against an implementation")
+    chk.add_argument("family", nargs="?", default="all", help="family name, or all (default)")
+    chk.add_argument("--behavior", help="module:Class of your implementation (default: the built-in one)")
+    size = chk.add_mutually_exclusive_group()
+    size.add_argument("--quick", dest="mode", action="store_const", const="quick", help="the quick suite (default)")
+    size.add_argument("--full", dest="mode", action="store_const", const="full", help="the full suite")
+    chk.set_defaults(mode="quick")
+    chk.add_argument("--clock", choices=["lockstep", "realtime"], help="only the cases of this clock")
+    chk.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    chk.add_argument("--json", type=Path, metavar="OUT", help="write the results as JSON")
+    chk.add_argument("--junit", type=Path, metavar="OUT", help="write JUnit XML")
+    chk.add_argument("--out", type=Path, default=Path("out/check"), help="where cases write their runs")
+    chk.add_argument("--no-determinism", action="store_true", help="skip the 2-process trace-hash comparison")
+
     robots = sub.add_parser("robots", help="run a robot host that joins a world")
     robots.add_argument("--connect", action="append", required=True, help="the world's Zenoh endpoint")
     robots.add_argument("--run-id", default="swarm")
@@ -89,6 +103,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "robots":
             return _robots(args)  # bad credentials files raise ValueError: exit 2
+        if args.command == "check":
+            return _check(args, err)
         sc = _load(args)
     except (ScenarioError, UsageError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)  # plain text: paths and keys must not be wrapped
@@ -166,6 +182,60 @@ def _world_endpoints(args, run_id: str) -> Endpoints:
     ensure_files(args.secure, args.tls_name)
     security = Security("world", args.secure)
     return Endpoints(mode="router", listen=listen, connect=args.connect, extra=security.zenoh_settings(run_id))
+
+
+def _check(args, err: Console) -> int:
+    """``swarmactors check``: run suites, print the report, write JSON/JUnit; exit 0 only if all passed."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.table import Table
+
+    from swarmactors import conformance as cf
+
+    if args.jobs < 1:
+        raise UsageError(f"--jobs {args.jobs}: must be >= 1")
+    try:
+        total = len([c for _, c in cf.select(args.family, args.mode)
+                     if args.clock is None or c.scenario.get("run", {}).get("clock", "lockstep") == args.clock])
+        with Progress(TextColumn("[bold]conformance"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.description}"),
+                      TimeElapsedColumn(), console=err) as bar:
+            task = bar.add_task("", total=total)
+
+            def tick(r) -> None:
+                bar.update(task, advance=1, description=f"{r.case} {'ok' if r.passed else 'FAILED'}")
+
+            results = cf.check(args.family, args.behavior, args.mode, args.clock, args.jobs, args.out,
+                               not args.no_determinism, progress=tick)
+    except cf.ContractError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    behavior = args.behavior or "built-in"
+    table = Table(title=f"conformance of {behavior} ({args.mode})")
+    for col in ("case", "result", "checks (value / bound)", "seed", "first tick"):
+        table.add_column(col)
+    for r in results:
+        shown = [o for o in r.outcomes if not o["passed"]] or r.outcomes
+        checks = "\n".join(f"{o['name']}: {o['value']} / {o['bound']}" for o in shown) or (r.error or "")
+        mark = "[green]passed[/]" if r.passed else "[red]FAILED[/]"
+        table.add_row(f"{r.family}/{r.case}" if not r.case.startswith(r.family) else r.case, mark, checks,
+                      str(r.seed), "" if r.first_tick is None else str(r.first_tick))
+    err.print(table)
+    for r in results:
+        if not r.passed:
+            for o in r.outcomes:
+                if not o["passed"]:
+                    print(f"FAILED {r.case}: {o['name']}: {o['detail']}", file=sys.stderr)
+            if r.error:
+                print(f"FAILED {r.case}: {r.error}", file=sys.stderr)
+            if r.reproduce:
+                print(f"  reproduce (seed {r.seed}, first tick {r.first_tick}): swarmactors run {r.reproduce}",
+                      file=sys.stderr)
+    if args.json:
+        args.json.write_text(json.dumps([cf.as_dict(r) for r in results], indent=1))
+    if args.junit:
+        args.junit.write_text(cf.junit_xml(results, behavior))
+    failed = sum(not r.passed for r in results)
+    print(f"{len(results) - failed} passed, {failed} failed", file=sys.stderr)
+    return EXIT_OK if failed == 0 else EXIT_CHECK
 
 
 def _wait_for(path: Path, seconds: float) -> None:

@@ -279,6 +279,7 @@ class RobotHost:
         self._take_membership(msg)
         now, objects = msg["now"], msg.get("objects", {})
         frames = decode_table(self.robots, msg.get("frames", ()))
+        bad = {k for k, f in enumerate(frames) if f is None}
         dims = len(msg["in"][0][1]) - 1 if msg["in"] else 2
         pending: dict[asyncio.Task, Robot] = {}
         stepped: list[Robot] = []
@@ -290,8 +291,8 @@ class RobotHost:
                 continue
             self._set_inputs(robot, pose, now, objects)
             inbox = [frames[k] for k in refs]
-            if None in inbox:
-                robot.bad_bodies += inbox.count(None)
+            if bad and not bad.isdisjoint(refs):
+                robot.bad_bodies += sum(1 for f in inbox if f is None)
                 inbox = [f for f in inbox if f is not None]
             rest = run_calls(robot, robot.calls(inbox, SensedView(ids, flat, dims)))
             if rest is not None:
@@ -316,17 +317,18 @@ class RobotHost:
     async def _run_realtime(self) -> None:
         uplink = self.keys.up(self.name)
         self._stopped = asyncio.Event()
+        self._epoch: float | None = None
         self._tasks: set[asyncio.Task] = set()
         self.link.subscribe(self.keys.down(self.name), self._on_down)
-        reply = unpack(await self.link.query(uplink, self._uplink({"h": self.name, "t": -1, "r": []}), timeout=30.0))
-        self._epoch = reply.get("epoch", time.time())
+        await self.link.query(uplink, self._uplink({"h": self.name, "t": -1, "r": []}), timeout=30.0)
+        # The epoch arrives with every tick's inputs; the registration reply predates the start.
         await self._stopped.wait()
         for task in list(self._tasks):
             task.cancel()
         await self._send_reports(uplink)
 
     def _rt_now(self) -> float:
-        return time.time() - self._epoch
+        return time.time() - (self._epoch or time.time())
 
     def _on_down(self, key: str, payload: bytes) -> None:
         try:

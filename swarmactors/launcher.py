@@ -10,6 +10,7 @@ that connect to the world's ephemeral loopback endpoint.
 from __future__ import annotations
 
 import asyncio
+import gc
 import json
 import logging
 import multiprocessing
@@ -18,6 +19,7 @@ import re
 import signal
 import uuid
 from collections.abc import Callable
+from contextlib import contextmanager
 from pathlib import Path
 
 from swarmactors.checks import run_checks
@@ -53,10 +55,29 @@ def host_process(endpoint: str, run_id: str, count: int | None) -> None:
 
 async def serve_host(endpoints: Endpoints, run_id: str, count: int | None) -> None:
     """Join run ``run_id`` through ``endpoints`` and run robots until the world stops."""
-    with Link(endpoints) as link:
+    with Link(endpoints) as link, quiet_gc():
         host = RobotHost(link, Keys(run_id), count)
         await host.join()
         await host.run()
+
+
+@contextmanager
+def quiet_gc():
+    """Tune the garbage collector for a run: freeze what set-up allocated, collect rarely.
+
+    A full collection walks every object (about 120,000 after importing scipy
+    and networkx), and pauses of ~100 ms at N = 1000 took half the wall time
+    (docs/benchmarks.md). Outcomes and trace hashes do not depend on it.
+    """
+    old = gc.get_threshold()
+    gc.collect()
+    gc.freeze()
+    gc.set_threshold(50_000, 50, 1000)
+    try:
+        yield
+    finally:
+        gc.set_threshold(*old)
+        gc.unfreeze()
 
 
 async def run_world(
@@ -102,10 +123,11 @@ async def run_world(
             if k > 0:
                 endpoint = link.locators()[0]
                 procs = spawn_hosts(endpoint, run_id, split(n, k))
-            async with asyncio.TaskGroup() as tg:
-                tg.create_task(world.run())
-                if k == 0 and local_host:
-                    tg.create_task(_local_host(link, keys))
+            with quiet_gc():
+                async with asyncio.TaskGroup() as tg:
+                    tg.create_task(world.run())
+                    if k == 0 and local_host:
+                        tg.create_task(_local_host(link, keys))
         finally:
             try:
                 loop.remove_signal_handler(signal.SIGINT)

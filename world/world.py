@@ -46,6 +46,7 @@ log = logging.getLogger(__name__)
 
 _NOTHING: list = [[], []]
 _INT64 = 1 << 63
+RT_BUCKET_S = 0.0005  # realtime deliveries due within the same half millisecond share one timer
 ACTIONS = ("kill", "kill_fraction", "add", "cut", "restore", "partition", "heal", "loss", "move", "stop")
 _BY_DST_SRC_SEQ = itemgetter(0, 1, 2)
 POS_DIGITS = 6  # positions in traces, state and hashes are rounded to 1e-6 length units
@@ -146,6 +147,7 @@ class World:
         self._stop_event = asyncio.Event()
         self._final_reports = asyncio.Event()
         self._rt_deliveries: dict[str, list] = defaultdict(list)
+        self._rt_buckets: dict[int, list] = {}
         self._rt_flush_scheduled: set[str] = set()
         # per-tick record being built
         self._rec: dict[str, Any] = {}
@@ -443,11 +445,22 @@ class World:
             by_frame[id(f)].append(dst)
             frames[id(f)] = f
         sent_at = time.time() - self.epoch
+        now = loop.time()
         for key, dsts in by_frame.items():
             f = frames[key]
             lat = self.medium.latencies_s(self.tick, f.src, f.seq, np.array(dsts))
             for dst, delay in zip(dsts, lat.tolist()):
-                loop.call_later(delay, self._rt_deliver, dst, f, sent_at, self.tick)
+                # One timer per bucket of RT_BUCKET_S; a bucket fires at its end, so never before c_min.
+                bucket = math.ceil((now + delay) / RT_BUCKET_S)
+                due = self._rt_buckets.get(bucket)
+                if due is None:
+                    due = self._rt_buckets[bucket] = []
+                    loop.call_at(bucket * RT_BUCKET_S, self._rt_fire, bucket)
+                due.append((dst, f, sent_at, self.tick))
+
+    def _rt_fire(self, bucket: int) -> None:
+        for delivery in self._rt_buckets.pop(bucket, ()):
+            self._rt_deliver(*delivery)
 
     def _rt_deliver(self, dst: int, f: Outgoing, sent_at: float, sent_tick: int) -> None:
         if self.finished:

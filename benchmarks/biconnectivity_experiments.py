@@ -1,0 +1,510 @@
+#!/usr/bin/env python
+"""Ahmadi & Stone's biconnectivity: our numbers beside the paper's.
+
+    python benchmarks/biconnectivity_experiments.py [--quick] [--only messages|coverage|loss]
+        [--img docs/img] [--out benchmarks/results/biconnectivity.json]
+
+1. **Message counts** (emulator runs, lockstep, no loss): per robot and period, the CR frames sent, relayed
+   and received on a ring of 35 robots (the paper: "each robot on average has to deal with 69 messages in
+   each time period"), and how they grow on denser graphs: stadium rings of 35 with chord robots, ladders
+   (rings with chords), grids and random geometric graphs. Every emulator count is compared with the
+   oracle's simple-path count; graphs too large to run are reported from the oracle alone.
+2. **Coverage** (the paper's Experimental Results): at most 10 robots, each responsible for a circular
+   region of diameter D; neighbours when they can communicate from anywhere in their regions (distance
+   between centres + D <= range); cr = range / D = 4 and 2; 100 episodes of random additions and
+   removals starting from 5 robots; the mean covered fraction of S (the sum of the regions' areas). The
+   episodes use the robots' own placement and removal functions from ``protocols.biconnectivity``
+   (``join_position``, ``removal_distance``, ``prox``) with exact positions; the distributed check is
+   replaced by its oracle (``paper_biconnected``), which the conformance tests show it equals.
+3. **Loss** (the paper assumes reliable links): how often the check's verdict is wrong or missing as the
+   per-frame loss p grows (emulator runs).
+
+Plots go to ``docs/img/biconnectivity-*.png``; all numbers to the JSON file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import math
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import networkx as nx  # noqa: E402
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from protocols.biconnectivity import (  # noqa: E402
+    adjacency,
+    biconnected,
+    expected_counts,
+    join_position,
+    paper_biconnected,
+    path_ends,
+    prox,
+    removal_distance,
+)
+from swarmactors.launcher import new_run_id, run_world  # noqa: E402
+from swarmactors.scenario import resolve_scenario  # noqa: E402
+from transport import Endpoints  # noqa: E402
+
+S = 0.9  # neighbour spacing; radio range 1
+PAPER = {"messages_35": 69, "coverage_cr4": 0.91, "coverage_cr2": 0.73, "coverage_cr2_min_intersection": 0.75}
+
+
+# ================================================================ emulator runs
+def run_check(positions, n_max: int, loss: float = 0.0, seed: int = 1, budget: int = 10**7, initiator: int = 0):
+    beh = {"use": "biconnectivity", "N": n_max, "c": 1, "initiator": initiator, "at": 1, "hello": 0,
+           "budget": budget}
+    sc = {"run": {"name": "bic-exp", "seed": seed, "ticks": 6 * n_max + 8, "trace": True},
+          "radio": {"range": 1.0, "latency": 1, "loss": loss},
+          "robots": [{"positions": [list(map(float, p)) for p in positions], "behaviors": [beh]}]}
+    sc = resolve_scenario(sc, "<experiment>")
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        result = asyncio.run(run_world(sc, Path(tmp), Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"]),
+                                       new_run_id("bic-exp")))
+        wall = time.perf_counter() - t0
+        graph = result.graph_at(0)
+    return result, graph, wall
+
+
+def ring(n: int) -> np.ndarray:
+    radius = S / (2 * math.sin(math.pi / n))
+    a = 2 * math.pi * np.arange(n) / n
+    return np.stack([radius * np.cos(a), radius * np.sin(a)], axis=1)
+
+
+def stadium(n: int = 35, chords: int = 0) -> np.ndarray:
+    """A ring of n robots drawn as a stadium: two rows 1.6 apart joined by cap robots at the ends (two on the
+    left when the count is odd), plus ``chords`` robots between the rows, each linking the robot above it to
+    the one below it (a chord of length 2). With ``chords = 0`` the graph is the ring C_n."""
+    row = (n - 2 - chords) // 2
+    two_left = (n - 2 - chords) % 2 == 1
+    bottom = [[S * i, 0.0] for i in range(row)]
+    top = [[S * i, 1.6] for i in range(row)]
+    caps = ([[-0.45, 0.45], [-0.45, 1.15]] if two_left else [[-0.55, 0.8]]) + [[S * (row - 1) + 0.55, 0.8]]
+    mids = [[S * round((k + 1) * (row - 1) / (chords + 1)), 0.8] for k in range(chords)]
+    return np.array(bottom + top + caps + mids)
+
+
+def grid(rows: int, cols: int) -> np.ndarray:
+    return np.array([[S * c, S * r] for r in range(rows) for c in range(cols)])
+
+
+def rgg(n: int, seed: int, density: float = 2.0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    for _ in range(1000):
+        pts = rng.random((n, 2)) * math.sqrt(n / density)
+        if nx.is_connected(graph_of(pts)):
+            return pts
+    raise RuntimeError("no connected placement")
+
+
+def graph_of(pts) -> nx.Graph:
+    g = nx.Graph()
+    g.add_nodes_from(range(len(pts)))
+    adj = adjacency(np.asarray(pts), 1.0)
+    g.add_edges_from((i, j) for i, nb in enumerate(adj) for j in nb if i < j)
+    return g
+
+
+def messages(quick: bool) -> dict:
+    out: dict = {"families": {}}
+    emulate_cap = 12_000 if quick else 60_000  # total simple paths we are willing to emulate
+
+    def measure(name: str, pts: np.ndarray, x: float):
+        g = graph_of(pts)
+        n = len(pts)
+        try:
+            ends = path_ends(g, limit=5_000_000)
+            oracle_sent = float(np.mean(list(ends.values())))
+            oracle_recv = float(np.mean([sum(ends[v] for v in g.neighbors(u)) for u in g]))
+            total = sum(ends.values())
+        except OverflowError:
+            oracle_sent = oracle_recv = None
+            total = None
+        row = {"x": x, "n": n, "edges": g.number_of_edges(), "biconnected": paper_biconnected(g),
+               "paths": total, "oracle_mean_sent": oracle_sent, "oracle_mean_received": oracle_recv}
+        if total is not None and total <= emulate_cap:
+            result, _, wall = run_check(pts, n_max=n)
+            per = result["metrics"]["biconnectivity"]["periods"]
+            (p,) = per.values()
+            row.update(emulated=True, wall_s=round(wall, 2),
+                       mean_sent=p["mean_sent"]["CR"], mean_relayed=p["mean_relayed"]["CR"],
+                       mean_received=p["mean_received"]["CR"],
+                       frames_sent=result["world"]["frames_sent"], deliveries=result["world"]["deliveries"])
+            exp = expected_counts(g)
+            reps = result.reports("biconnectivity")
+            row["equals_oracle"] = all(
+                {k: next(iter(reps[v]["periods"].values()))[k][kind] for k in ("sent", "relayed", "received")}
+                == exp[v] for v in g if exp[v]["relayed"] for kind in ("CR", "DCR"))
+        else:
+            row["emulated"] = False
+        out["families"].setdefault(name, []).append(row)
+        print(f"  {name:22s} n={n:3d} paths={total}  sent/robot={row.get('mean_sent', oracle_sent)}"
+              f"  emulated={row['emulated']}", flush=True)
+
+    print("messages per robot and period (CR):")
+    for n in ([5, 10, 20, 35] if quick else [5, 10, 15, 20, 25, 30, 35]):
+        measure("ring", ring(n), n)
+    for c in ([0, 1, 2] if quick else [0, 1, 2, 3, 4]):
+        measure("stadium35+chords", stadium(35, c), c)
+    for k in ([2, 3, 4, 5, 6] if quick else [2, 3, 4, 5, 6, 7, 8, 9, 10]):
+        measure("ladder", np.array([[S * i, 0.0] for i in range(k)] + [[S * i, S] for i in range(k)]), 2 * k)
+    for r, c in ([(2, 2), (3, 3), (3, 4)] if quick else [(2, 2), (3, 3), (3, 4), (4, 4), (4, 5)]):
+        measure("grid", grid(r, c), r * c)
+    for n in ([6, 8, 10] if quick else [6, 8, 10, 12, 14]):
+        for seed in range(2 if quick else 4):
+            measure("rgg(avg deg ~4)", rgg(n, seed, 2.0), n)
+    r35 = out["families"]["ring"][-1]
+    out["ring35"] = {"paper": PAPER["messages_35"], "sent": r35["mean_sent"], "relayed": r35["mean_relayed"],
+                     "received": r35["mean_received"]}
+    return out
+
+
+def plot_messages(data: dict, path: Path) -> None:
+    fig, ax = plt.subplots(figsize=(7.5, 5), dpi=110)
+    styles = {"ring": "o-", "ladder": "s-", "grid": "^-", "rgg(avg deg ~4)": "x"}
+    for name, rows in data["families"].items():
+        if name.startswith("stadium"):
+            continue
+        xs = [r["n"] for r in rows if r["oracle_mean_sent"]]
+        ys = [r["oracle_mean_sent"] for r in rows if r["oracle_mean_sent"]]
+        ax.plot(xs, ys, styles.get(name, "o-"), label=f"{name} (oracle)", alpha=0.8)
+        em = [(r["n"], r["mean_sent"]) for r in rows if r.get("emulated")]
+        if em:
+            ax.scatter(*zip(*em), s=80, facecolors="none", edgecolors="k", zorder=3)
+    st = data["families"].get("stadium35+chords", [])
+    for r in st:
+        if r["oracle_mean_sent"]:
+            ax.scatter([35], [r["oracle_mean_sent"]], marker="D", color="tab:purple", zorder=4)
+            ax.annotate(f"stadium, {r['x']} chord{'s' if r['x'] != 1 else ''}", (35, r["oracle_mean_sent"]),
+                        textcoords="offset points", xytext=(-8, -3), fontsize=7, ha="right")
+    ax.scatter([35], [PAPER["messages_35"]], marker="*", s=260, color="red", zorder=5, label="paper: 69 (35 robots)")
+    ax.set_yscale("log")
+    ax.set_xlabel("robots n")
+    ax.set_ylabel("CR frames sent per robot per period")
+    ax.set_title("Stamped-message relay: one frame per simple path\n(circles: measured in the emulator)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3, which="both")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+# ================================================================ coverage (the paper's experiment)
+def union_area(centres: np.ndarray, rho: float) -> float:
+    """Exact area of a union of equal disks: Green's theorem over the boundary arcs no other disk covers."""
+    c: list[np.ndarray] = []
+    for p in np.asarray(centres, dtype=float):
+        if all(np.linalg.norm(p - q) > 1e-12 for q in c):  # coincident disks count once
+            c.append(p)
+    two_pi = 2 * math.pi
+    area = 0.0
+    for i, ci in enumerate(c):
+        segs = []  # covered angular intervals of circle i, within [0, 2pi)
+        for j, cj in enumerate(c):
+            d = float(np.linalg.norm(cj - ci))
+            if i == j or d >= 2 * rho:
+                continue
+            phi = math.atan2(cj[1] - ci[1], cj[0] - ci[0]) % two_pi
+            alpha = math.acos(d / (2 * rho))
+            a, b = phi - alpha, phi + alpha
+            if a < 0:
+                segs += [(a + two_pi, two_pi), (0.0, b)]
+            elif b > two_pi:
+                segs += [(a, two_pi), (0.0, b - two_pi)]
+            else:
+                segs.append((a, b))
+        segs.sort()
+        free, cur = [], 0.0
+        for a, b in segs:
+            if a > cur:
+                free.append((cur, a))
+            cur = max(cur, b)
+        if cur < two_pi:
+            free.append((cur, two_pi))
+        for t1, t2 in free:  # 1/2 * integral of (x dy - y dx) along the arc
+            area += 0.5 * (rho * rho * (t2 - t1) + ci[0] * rho * (math.sin(t2) - math.sin(t1))
+                           - ci[1] * rho * (math.cos(t2) - math.cos(t1)))
+    return area
+
+
+def structure_fine(pts: np.ndarray, reach: float) -> bool:
+    n = len(pts)
+    if n <= 1:
+        return True
+    adj = adjacency(pts, reach)
+    if n == 2:
+        return 1 in adj[0]
+    return biconnected(adj)
+
+
+def episode_run(cr: float, method: str, seed: int, episodes: int = 100, start: int = 5, n_max: int = 10,
+                init: str = "added", d_more_frac: float = 0.05, noise: float = 0.0) -> dict:
+    """One experiment: ``episodes`` random additions/removals; coverage after each episode.
+
+    ``init``: the first five robots are ``added`` one by one by the placement rule (our default), or
+    ``compact``: a pentagon whose neighbouring centres are D/2 apart (a swarm fresh from its base).
+    ``d_more_frac``: the leader's further step d' as a fraction of the neighbour distance.
+    ``noise``: standard deviation (in D) of the error on the positions the removal leader computes d from
+    (the paper's "approximate" knowledge); the check that follows each move sees the truth.
+    """
+    D = 1.0
+    rho = D / 2
+    rng_ = cr * D
+    reach = rng_ - D  # centres' distance for two regions to talk from anywhere
+    rng = np.random.default_rng(seed)
+    d_step, d_more = reach / 100, reach * d_more_frac
+
+    def add(pts):
+        if len(pts) == 0:
+            return np.zeros((1, 2))
+        got = join_position(pts, reach, method=method, rho=rho, rng=rng)
+        if got is None:
+            raise RuntimeError("no admissible position")
+        return np.vstack([pts, got[0]])
+
+    def remove(pts):
+        k = int(rng.integers(len(pts)))
+        pos = pts[k]
+        adj = adjacency(pts, reach)
+        nb = sorted(adj[k])
+        rest = np.delete(pts, k, axis=0)
+        if len(rest) <= 1:
+            return rest, 0.0, 0
+        idx = [j - (j > k) for j in nb]
+        seen = rest[idx] + rng.normal(0.0, noise * D, size=(len(idx), 2)) if noise else rest[idx]
+        d = removal_distance(seen, pos, reach, d_step) if len(idx) >= 2 else 0.0
+        moved = prox(rest, pos, d)
+        total, rounds = d, 1
+        while not structure_fine(moved, reach) and rounds < 200:
+            moved = prox(moved, pos, d_more)
+            total += d_more
+            rounds += 1
+        extra_rounds.append(rounds - 1)
+        return moved, total, rounds
+
+    pts = np.zeros((0, 2))
+    if init == "compact":
+        a = 2 * math.pi * np.arange(start) / start
+        radius = (D / 2) / (2 * math.sin(math.pi / start))
+        pts = np.stack([radius * np.cos(a), radius * np.sin(a)], axis=1)
+    else:
+        for _ in range(start):
+            pts = add(pts)
+    cover, sizes, moves, broken, states, extra_rounds = [], [], [], 0, [], []
+    pooled = [0.0, 0.0]  # sums of covered area and of S over the episodes
+    for _ in range(episodes):
+        n = len(pts)
+        if n >= n_max:
+            act = "remove"
+        elif n == 0:
+            act = "add"
+        else:
+            act = "add" if rng.random() < 0.5 else "remove"
+        if act == "add":
+            pts = add(pts)
+        else:
+            pts, d, rounds = remove(pts)
+            moves.append(d)
+        if len(pts) and not structure_fine(pts, reach):
+            broken += 1
+        if len(pts):
+            union, total_area = union_area(pts, rho), len(pts) * math.pi * rho * rho
+            pooled[0] += union
+            pooled[1] += total_area
+            cover.append(union / total_area)
+            sizes.append(len(pts))
+            states.append(pts.tolist())
+    return {"mean_coverage": float(np.mean(cover)), "pooled_coverage": pooled[0] / pooled[1],
+            "mean_size": float(np.mean(sizes)), "not_biconnected": broken,
+            "mean_move": float(np.mean(moves)) if moves else 0.0, "trace": cover, "states": states,
+            "extra_rounds": int(sum(extra_rounds))}
+
+
+def coverage(quick: bool) -> dict:
+    seeds = range(5 if quick else 30)
+    out = {}
+    for cr, method in ((4, "heuristic"), (2, "heuristic"), (2, "min_intersection"), (4, "min_intersection")):
+        runs = [episode_run(cr, method, s) for s in seeds]
+        vals = [r["mean_coverage"] for r in runs]
+        key = f"cr{cr}_{method}"
+        out[key] = {"cr": cr, "method": method, "seeds": len(vals), "mean": float(np.mean(vals)),
+                    "d_prime_rounds": int(sum(r["extra_rounds"] for r in runs)),
+                    "pooled": float(np.mean([r["pooled_coverage"] for r in runs])),
+                    "std": float(np.std(vals)), "min": float(np.min(vals)), "max": float(np.max(vals)),
+                    "not_biconnected_episodes": int(sum(r["not_biconnected"] for r in runs)),
+                    "mean_size": float(np.mean([r["mean_size"] for r in runs])),
+                    "example": runs[0]}
+        print(f"  coverage cr={cr} {method:17s}: {np.mean(vals):.3f} +- {np.std(vals):.3f} over {len(vals)} runs,"
+              f" pooled {out[key]['pooled']:.3f}"
+              f" (episodes not biconnected: {out[key]['not_biconnected_episodes']})", flush=True)
+    sens = {}
+    for cr in (4, 2):
+        for label, kw in (("compact start", {"init": "compact"}), ("200 episodes", {"episodes": 200}),
+                          ("leader's positions off by sd 0.1 D, d' = 10% of reach", {"noise": 0.1, "d_more_frac": 0.1}),
+                          ("leader's positions off by sd 0.3 D, d' = 25% of reach",
+                           {"noise": 0.3, "d_more_frac": 0.25})):
+            runs = [episode_run(cr, "heuristic", s, **kw) for s in seeds]
+            vals = [r["mean_coverage"] for r in runs]
+            extra = int(sum(r["extra_rounds"] for r in runs))
+            sens[f"cr{cr} heuristic, {label}"] = {"mean": float(np.mean(vals)), "std": float(np.std(vals)),
+                                                  "pooled": float(np.mean([r["pooled_coverage"] for r in runs])),
+                                                  "d_prime_rounds": extra}
+            print(f"  sensitivity cr={cr} heuristic, {label}: {np.mean(vals):.3f} +- {np.std(vals):.3f}"
+                  f" (d' rounds: {extra})", flush=True)
+    out["sensitivity"] = sens
+    out["paper"] = {"cr4_heuristic": PAPER["coverage_cr4"], "cr2_heuristic": PAPER["coverage_cr2"],
+                    "cr2_min_intersection": PAPER["coverage_cr2_min_intersection"]}
+    return out
+
+
+def plot_coverage(data: dict, path: Path) -> None:
+    fig, (ax, bx, cx) = plt.subplots(1, 3, figsize=(15, 4.6), dpi=110, gridspec_kw={"width_ratios": [1.1, 1.2, 1]})
+    keys = ["cr4_heuristic", "cr2_heuristic", "cr2_min_intersection", "cr4_min_intersection"]
+    labels = ["cr = 4\nheuristic", "cr = 2\nheuristic", "cr = 2\nmin. intersection", "cr = 4\nmin. intersection"]
+    ours = [data[k]["mean"] for k in keys]
+    errs = [data[k]["std"] for k in keys]
+    paper = [data["paper"].get(k) for k in keys]
+    x = np.arange(len(keys))
+    ax.bar(x - 0.18, ours, 0.36, yerr=errs, label="ours (mean ± sd over runs)", color="tab:blue")
+    ax.bar(x + 0.18, [p if p is not None else 0 for p in paper], 0.36, label="paper", color="tab:orange")
+    for i, p in enumerate(paper):
+        if p is None:
+            ax.text(x[i] + 0.18, 0.02, "n/a", ha="center", fontsize=8)
+    ax.set_xticks(x, labels, fontsize=8)
+    ax.set_ylim(0, 1.05)
+    ax.set_ylabel("mean covered fraction of S")
+    ax.set_title("Coverage while staying biconnected")
+    ax.legend(fontsize=8, loc="lower left")
+    for k, colour in (("cr4_heuristic", "tab:blue"), ("cr2_heuristic", "tab:green")):
+        ex = data[k]["example"]
+        bx.plot(ex["trace"], color=colour, lw=1, label=f"{k.split('_')[0]} (run 0)")
+        bx.plot([len(st) / 10 for st in ex["states"]], color=colour, lw=0.6, ls=":")
+    bx.set_xlabel("episode")
+    bx.set_ylabel("covered fraction of S (solid); robots / 10 (dotted)")
+    bx.set_ylim(0, 1.05)
+    bx.legend(fontsize=8)
+    bx.set_title("One run of 100 episodes")
+    ex = data["cr2_heuristic"]["example"]
+    k = max(range(len(ex["states"])), key=lambda i: (len(ex["states"][i]), i))
+    pts = np.array(ex["states"][k])
+    for p in pts:
+        cx.add_patch(plt.Circle(p, 0.5, alpha=0.25, color="tab:green"))
+    adj = adjacency(pts, 1.0)
+    for i, nb in enumerate(adj):
+        for j in nb:
+            if i < j:
+                cx.plot(*zip(pts[i], pts[j]), color="0.5", lw=0.6)
+    cx.scatter(pts[:, 0], pts[:, 1], s=8, color="k")
+    cx.set_aspect("equal")
+    cx.autoscale()
+    cx.set_title(f"cr = 2, run 0, episode {k + 1}: {len(pts)} regions, neighbour links")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+# ================================================================ loss
+def loss_sweep(quick: bool) -> dict:
+    graphs = {
+        "ring8": (ring(8), True),
+        "ladder2x4": (np.array([[S * i, 0.0] for i in range(4)] + [[S * i, S] for i in range(4)]), True),
+        "bowtie": (np.array([[0.0, 0.0], [-0.8, 0.45], [-0.8, -0.45], [0.8, 0.45], [0.8, -0.45]]), False),
+        "path5": (np.array([[S * i, 0.0] for i in range(5)]), False),
+    }
+    ps = [0.0, 0.01, 0.05, 0.1, 0.2, 0.3, 0.5]
+    seeds = range(3 if quick else 10)
+    rows = []
+    for p in ps:
+        agg = {"p": p, "checks": 0, "correct": 0, "wrong": 0, "missing": 0, "wrong_true": 0, "wrong_false": 0,
+               "checks_on_biconnected": 0, "wrong_on_biconnected": 0, "missing_on_biconnected": 0,
+               "checks_on_not_biconnected": 0, "wrong_on_not_biconnected": 0, "missing_on_not_biconnected": 0}
+        for name, (pts, truth) in graphs.items():
+            for seed in seeds:
+                result, _, _ = run_check(pts, n_max=max(len(pts), 3), loss=p, seed=seed)
+                assert result["stop_reason"] is None
+                cls = "biconnected" if truth else "not_biconnected"
+                for rep in result.reports("biconnectivity").values():
+                    for ck in rep["checks"]:
+                        agg["checks"] += 1
+                        agg[f"checks_on_{cls}"] += 1
+                        if ck["verdict"] is None:
+                            agg["missing"] += 1
+                            agg[f"missing_on_{cls}"] += 1
+                        elif ck["verdict"] is truth:
+                            agg["correct"] += 1
+                        else:
+                            agg["wrong"] += 1
+                            agg[f"wrong_on_{cls}"] += 1
+                            agg["wrong_true" if ck["verdict"] else "wrong_false"] += 1
+        rows.append(agg)
+        print(f"  loss p={p:.2f}: {agg}", flush=True)
+    return {"graphs": list(graphs), "seeds": len(seeds), "rows": rows}
+
+
+def plot_loss(data: dict, path: Path) -> None:
+    rows = data["rows"]
+    p = [r["p"] for r in rows]
+    fig, ax = plt.subplots(figsize=(6.5, 4), dpi=110)
+    for cls, colour in (("biconnected", "tab:blue"), ("not_biconnected", "tab:red")):
+        n = [max(1, r[f"checks_on_{cls}"]) for r in rows]
+        label = cls.replace("_", " ")
+        ax.plot(p, [r[f"wrong_on_{cls}"] / k for r, k in zip(rows, n)], "o-", color=colour,
+                label=f"wrong verdict, {label} graphs")
+        ax.plot(p, [r[f"missing_on_{cls}"] / k for r, k in zip(rows, n)], "x--", color=colour,
+                label=f"no verdict (timeout), {label} graphs")
+    ax.set_xlabel("per-frame loss p")
+    ax.set_ylabel("fraction of check-running robots")
+    ax.set_title(f"The check under loss ({', '.join(data['graphs'])}; {data['seeds']} seeds)", fontsize=10)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="fewer graphs, seeds and runs")
+    ap.add_argument("--img", default=str(ROOT / "docs" / "img"))
+    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "biconnectivity.json"))
+    ap.add_argument("--only", choices=["messages", "coverage", "loss"], default=None)
+    args = ap.parse_args()
+    img = Path(args.img)
+    img.mkdir(parents=True, exist_ok=True)
+    out_path = Path(args.out)
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    data = json.loads(out_path.read_text()) if out_path.exists() else {}
+    t0 = time.perf_counter()
+    if args.only in (None, "messages"):
+        data["messages"] = messages(args.quick)
+        plot_messages(data["messages"], img / "biconnectivity-messages.png")
+    if args.only in (None, "coverage"):
+        print("coverage (cr = range / region diameter):")
+        data["coverage"] = coverage(args.quick)
+        plot_coverage(data["coverage"], img / "biconnectivity-coverage.png")
+    if args.only in (None, "loss"):
+        print("the check under loss:")
+        data["loss"] = loss_sweep(args.quick)
+        plot_loss(data["loss"], img / "biconnectivity-loss.png")
+    data.pop("wall_s", None)
+    data["quick"] = args.quick
+    data[f"wall_s_{args.only or 'all'}"] = round(time.perf_counter() - t0, 1)
+    out_path.write_text(json.dumps(data, indent=1, default=float))
+    print(f"wrote {out_path} and {img}/biconnectivity-*.png in {time.perf_counter() - t0:.1f} s")
+
+
+if __name__ == "__main__":
+    main()
