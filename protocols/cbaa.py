@@ -555,7 +555,9 @@ def _tasks(n: int, seed: int, spread: float) -> list[list[float]]:
 
 def suite(mode: str) -> list[Case]:
     """Static networks of several shapes, fewer and more tasks than robots, both clocks, loss."""
+    ties = [[0.4 + 0.8 * i, 0.0] for i in range(5)]  # each task equidistant from two robots: equal bids
     cases = [
+        _cbaa_case("line-6-tied-tasks-5", line(6), ties),
         _cbaa_case("line-6-tasks-4", line(6), _tasks(4, 1, 4.0)),
         _cbaa_case("ring-8-tasks-10", ring(8), _tasks(10, 2, 2.5)),
         _cbaa_case("rgg-15-s1-tasks-8", random_geometric(15, 1), _tasks(8, 3, 3.5)),

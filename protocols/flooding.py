@@ -129,7 +129,8 @@ class Flooding(Behavior):
 
 # ---------------------------------------------------------------- oracle checks
 def _params(result: Result) -> dict:
-    return result.behavior_params("flooding")
+    """The flood's parameters (defaults for any a user's implementation does not declare)."""
+    return {"origin": 0, "at": 0, "expiry": None, "hops": None} | result.behavior_params("flooding")
 
 
 def _receivers(result: Result, behavior: str = "flooding") -> dict[int, dict]:

@@ -1,6 +1,7 @@
 """swarmactors: robot swarms as asynchronous actors over Eclipse Zenoh."""
 
 from swarmactors.behavior import Behavior, Context, Frame, Sensed
+from swarmactors.builder import Scenario
 from swarmactors.checks import Outcome
 from swarmactors.result import Result
 
@@ -12,4 +13,4 @@ def run(scenario, **kwargs) -> Result:
     return _run(scenario, **kwargs)
 
 
-__all__ = ["Behavior", "Context", "Frame", "Outcome", "Result", "Sensed", "run"]
+__all__ = ["Behavior", "Context", "Frame", "Outcome", "Result", "Scenario", "Sensed", "run"]

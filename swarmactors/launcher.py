@@ -226,7 +226,7 @@ def metrics(sc: dict, reports: dict[int, dict]) -> dict:
     return out
 
 
-def run(scenario: str | Path | dict, *, out: str | Path | None = None, processes: int | None = None,
+def run(scenario, *, out: str | Path | None = None, processes: int | None = None,
         overrides: list[str] = (), **settings) -> Result:
     """Run a scenario (a TOML path or a dict as parsed from TOML) and return its Result.
 
@@ -237,7 +237,9 @@ def run(scenario: str | Path | dict, *, out: str | Path | None = None, processes
     from swarmactors.scenario import load, resolve_scenario
 
     items = list(overrides) + [f"{k.replace('__', '.')}={_toml_value(v)}" for k, v in settings.items()]
-    if isinstance(scenario, dict):
+    if hasattr(scenario, "resolve"):  # a swarmactors.Scenario
+        sc = scenario.resolve(items)
+    elif isinstance(scenario, dict):
         sc = resolve_scenario(scenario, "<dict>", items)
     else:
         sc = load(scenario, items)

@@ -1,0 +1,918 @@
+"""Role switching for continuous connectivity (Kobayashi, Higuchi & Ueno 2022): the robot behaviours.
+
+``RoleSwitching`` (``roles``) is the paper's robot: base station, repeater, local leader or explorer;
+Algorithm 1 made safe under loss; Algorithm 2 with CONNECT / DISCONNECT requests; the motion of Eqs. 1-7;
+the recovery of Sec. III-D; and the patrol's target relay. ``AATWalk`` (``aat``) is the preliminary
+experiment's explorer (Sec. IV-A): a random walk with Algorithm 2 or the every-tick baseline.
+
+The rules, their numbering and every chosen value are in docs/protocols/roles.md; the module docstring of
+``protocols.roles`` summarises them. Robots know only what they sensed (ids and positions within d_s) and
+what they were told; nothing here uses an oracle.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+from protocols.roles.aat import MODES, PROPOSED, Connections
+from swarmactors import Behavior, Context, Frame
+
+# ------------------------------------------------------------------ roles and message kinds
+BS, RP, LL, EX = "base_station", "repeater", "local_leader", "explorer"
+ROLES = (BS, RP, LL, EX)
+ROLE_CODE = {BS: 0, RP: 1, LL: 2, EX: 3}
+LINKABLE = (LL, EX)
+
+STATE = "RS_STATE"  # every tick, to the robots in A_i: role, position, velocity, control input, |A_i|, epoch
+LL_INFO = "RS_LL"  # the local leader's u_LL and x_LL, by message-expiration flooding (Sec. III-C)
+CONNECT = "RS_CONNECT"  # Algorithm 2: i asks j to add the link (j complies if its role allows)
+DISCONNECT = "RS_DISCONNECT"  # Algorithm 2 (or a role refusal): j drops the link
+REQUEST = "ROLE_REQUEST"  # Algorithm 1: become the local leader (epoch, switch tick, goal)
+ACK = "ROLE_ACK"
+NACK = "ROLE_NACK"
+TARGET = "RS_TARGET"  # base station -> chain -> local leader: the current target
+ARRIVED = "RS_ARRIVED"  # local leader -> chain -> base station
+HELP = "RS_HELP"  # a disconnected explorer asks a repeater / the base station for its child's location
+WHERE = "RS_WHERE"  # the answer: the child's id, role and position
+KINDS = (STATE, LL_INFO, CONNECT, DISCONNECT, REQUEST, ACK, NACK, TARGET, ARRIVED, HELP, WHERE)
+
+EXTEND, RETRACT = "extend", "retract"
+
+
+def _num(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _int(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _vec(v: Any) -> bool:
+    return isinstance(v, (list, tuple)) and len(v) == 2 and all(_num(x) for x in v)
+
+
+def cap(u: np.ndarray, vmax: float) -> np.ndarray:
+    n = math.hypot(u[0], u[1])
+    return u * (vmax / n) if n > vmax else u
+
+
+def _r(v: np.ndarray, digits: int = 6) -> list[float]:
+    return [round(float(v[0]), digits), round(float(v[1]), digits)]
+
+
+class _Timed:
+    """Mix-in: wall time spent in this robot's hooks, total and by role (the paper's 'processing time')."""
+
+    def _clock_in(self) -> float:
+        return time.perf_counter()
+
+    def _clock_out(self, t0: float, role: str) -> None:
+        dt = time.perf_counter() - t0
+        self.cpu += dt
+        self.cpu_role[role] = self.cpu_role.get(role, 0.0) + dt
+
+
+# ================================================================== the paper's robot
+class RoleSwitching(Behavior, _Timed):
+    """A robot of Kobayashi et al.'s patrol: role switching, connection management, motion and recovery."""
+
+    name = "roles"
+    kinds = KINDS
+    plot_field = "rc"  # role code: 0 base station, 1 repeater, 2 local leader, 3 explorer
+
+    def __init__(self, leader: int, base: int = 0, targets: list | dict | None = None, d_c: float = 1.5,
+                 eta_a: float = 0.8, eta_b: float = 0.3, eta_c: int = 3, aat: str = PROPOSED,
+                 k1: float = 0.05, k2: float = 0.1, k3: float = 0.02, k4: float = 0.1, k5: float = 0.5,
+                 k6: float = 0.05, k7: float = 0.5, k8: float = 0.02, d_n: float = 0.6, vmax: float = 0.03,
+                 timestep: float = 1.0, expiry: int = 15, lost_after: int = 8, help_every: int = 5,
+                 target_every: int = 10, arrive: float = 0.1, switch_delay: int = 3, lease: int = 6,
+                 hold: float = 0.95):
+        self.leader, self.base = leader, base
+        self.targets_param = targets
+        self.d_c, self.eta_a, self.eta_b, self.eta_c = float(d_c), eta_a, eta_b, eta_c
+        self.k = (None, k1, k2, k3, k4, k5, k6, k7, k8)
+        self.d_n, self.vmax, self.timestep = d_n, vmax, timestep
+        self.expiry, self.lost_after, self.help_every, self.target_every = expiry, lost_after, help_every, target_every
+        self.arrive, self.switch_delay, self.lease, self.hold = arrive, switch_delay, lease, hold
+        self.conn = Connections(aat, eta_c, self.d_c)
+        self.role = EX
+        self.role_changed = True  # Algorithm 2 line 4: the first tick counts as a change
+        self.parent: int | None = None
+        self.child: int | None = None
+        self.epoch = 0  # leadership epoch held (local leader) or the highest known (others)
+        self.nbr: dict[int, dict] = {}  # latest STATE per robot
+        self.known_role: dict[int, str] = {}
+        self.repair: set[int] = set()  # robots that believe they are linked to us (STATE received)
+        self.u = np.zeros(2)
+        self.prev_pos: np.ndarray | None = None
+        self.vel = np.zeros(2)
+        # mission
+        self.goal: list[float] | None = None
+        self.goal_k = -1
+        self.arrived_k = -1
+        self.last_arrived_sent = -10**9
+        self.targets: list[list[float]] = []
+        self.target_i = 0
+        self.reached: list[list] = []  # base station: [target index, tick]
+        self.last_target_sent = -10**9
+        # flooding of u_LL, x_LL (rules F1-F3 of protocols/flooding.py)
+        self.flood_seq = 0
+        self.seen: dict[tuple[int, int], float] = {}
+        self.info: dict | None = None  # freshest {e, o, s, x, u}
+        self.last_info = 0
+        self.flood_stats = {"received": 0, "forwarded": 0, "expired": 0, "duplicates": 0}
+        # Algorithm 1 hand-over
+        self.ho: dict | None = None  # as requester
+        self.pending: dict | None = None  # as candidate (accepted, waiting for the switch tick)
+        self.took_over: dict | None = None  # how we became local leader (to revert if our epoch loses)
+        self.handovers: list[dict] = []
+        self.accepted: list[dict] = []
+        self.refused: dict[str, int] = {}
+        self.nacked: dict[int, int] = {}  # candidate -> tick it refused (skip it for a while)
+        self.stepdowns = 0
+        # recovery
+        self.lost = False
+        self.lost_episodes: list[list[int]] = []
+        self.head: dict | None = None  # {id, role, pos, via}
+        self.temp: int | None = None
+        self.last_help = -10**9
+        self.helps = 0
+        # accounting
+        self.role_log: list[list] = []
+        self.received = 0
+        self.received_kind: dict[str, int] = {}
+        self.ticks = 0
+        self.ticks_role: dict[str, int] = {}
+        self.cpu = 0.0
+        self.cpu_role: dict[str, float] = {}
+        self.malformed = 0
+        self.stall = 0
+
+    # ---------------------------------------------------------- parameters
+    @staticmethod
+    def validate(params: dict) -> str | None:
+        for key in ("leader", "base"):
+            if key in params and (not _int(params[key]) or params[key] < 0):
+                return f"{key} = {params[key]!r} must be a robot id (non-negative integer)"
+        if params.get("leader") == params.get("base", 0):
+            return "the base station cannot be the initial local leader"
+        for key in ("d_c", "eta_a", "eta_b", "vmax", "timestep", "d_n", "arrive", "hold"):
+            if key in params and (not _num(params[key]) or params[key] <= 0):
+                return f"{key} = {params[key]!r} must be a positive number"
+        for key in ("eta_a", "eta_b", "hold"):
+            if key in params and params[key] >= 1:
+                return f"{key} = {params[key]!r} must be below 1 (a fraction of d_c)"
+        if params.get("eta_b", 0.3) >= params.get("eta_a", 0.8):
+            return "eta_b must be smaller than eta_a"
+        for key in ("eta_c", "expiry", "lost_after", "help_every", "target_every", "switch_delay", "lease"):
+            if key in params and (not _int(params[key]) or params[key] < 1):
+                return f"{key} = {params[key]!r} must be a positive integer"
+        for key in ("k1", "k2", "k3", "k4", "k5", "k6", "k7", "k8"):
+            if key in params and (not _num(params[key]) or params[key] < 0):
+                return f"{key} = {params[key]!r} must be a non-negative number"
+        if params.get("aat", PROPOSED) not in MODES:
+            return f"aat = {params.get('aat')!r} must be one of {MODES}"
+        t = params.get("targets")
+        if t is not None:
+            if isinstance(t, dict):
+                if set(t) - {"seed", "count", "lo", "hi"} or not _int(t.get("count", 0)):
+                    return "targets as a table takes seed, count, lo, hi"
+            elif not (isinstance(t, list) and all(_vec(p) for p in t)):
+                return "targets must be a list of [x, y] points or {seed, count, lo, hi}"
+        return None
+
+    # ---------------------------------------------------------- helpers
+    def _set_role(self, ctx: Context, role: str) -> None:
+        if role != self.role:
+            self.role = role
+            self.role_changed = True
+            self.role_log.append([ctx.tick, role])
+
+    def _links_all(self) -> set[int]:
+        """A_i: chain links plus the Algorithm 2 links."""
+        out = set(self.conn.links)
+        if self.role in (RP, LL) and self.parent is not None:
+            out.add(self.parent)
+        if self.role in (RP, BS) and self.child is not None:
+            out.add(self.child)
+        return out
+
+    def _linkable(self, rid: int) -> bool:
+        return self.known_role.get(rid, EX) in LINKABLE and rid not in (self.parent, self.child, self.base)
+
+    def _send_to(self, ctx: Context, kind: str, body: Any, dsts: set[int]) -> None:
+        """One radio broadcast heard only by ``dsts`` (everyone else sensed is excluded)."""
+        if not dsts:
+            return
+        if len(dsts) == 1:
+            ctx.send(next(iter(dsts)), kind, body)
+            return
+        ctx.broadcast(kind, body, exclude=[r for r in self._sensed_ids if r not in dsts])
+
+    def _where(self, rid: int | None) -> np.ndarray | None:
+        """A robot's position: sensed this tick if it is in range, else from its last STATE."""
+        if rid is None:
+            return None
+        k = self._sensed_index.get(rid)
+        if k is not None:
+            return self._sensed_pos[k]
+        st = self.nbr.get(rid)
+        return np.array(st["p"]) if st else None
+
+    def _key(self) -> tuple[int, int]:
+        return (self.epoch, self.id)
+
+    def _refuse(self, reason: str) -> None:
+        self.refused[reason] = self.refused.get(reason, 0) + 1
+
+    # ---------------------------------------------------------- start
+    def on_start(self, ctx: Context) -> None:
+        self.id = ctx.id
+        self._sensed_ids: list[int] = []
+        self._sensed_index: dict[int, int] = {}
+        self._sensed_pos = np.zeros((0, 2))
+        if ctx.id == self.base:
+            self.role = BS
+            self.child = self.leader
+            self.targets = self._draw_targets()
+        elif ctx.id == self.leader:
+            self.role = LL
+            self.parent = self.base
+        self.known_role[self.base] = BS
+        self.known_role[self.leader] = LL
+        self.role_log.append([ctx.tick, self.role])
+
+    def _draw_targets(self) -> list[list[float]]:
+        t = self.targets_param
+        if t is None:
+            return []
+        if isinstance(t, dict):
+            rng = np.random.default_rng(t.get("seed", 0))
+            lo, hi = float(t.get("lo", 0.0)), float(t.get("hi", 1.0))
+            return np.round(rng.uniform(lo, hi, size=(int(t.get("count", 0)), 2)), 4).tolist()
+        return [list(map(float, p)) for p in t]
+
+    # ---------------------------------------------------------- frames
+    def on_frame(self, ctx: Context, frame: Frame) -> None:
+        t0 = self._clock_in()
+        self.received += 1
+        self.received_kind[frame.kind] = self.received_kind.get(frame.kind, 0) + 1
+        body = frame.body
+        try:
+            handler = _HANDLERS[frame.kind]
+            ok = handler(self, ctx, frame.src, body)
+        except (TypeError, KeyError, ValueError, IndexError, AttributeError):
+            ok = False
+        if ok is False:
+            self.malformed += 1
+        self._clock_out(t0, self.role)
+
+    def _on_state(self, ctx: Context, src: int, b: dict) -> bool:
+        if not (isinstance(b, dict) and b.get("r") in ROLES and _vec(b.get("p")) and _vec(b.get("u"))
+                and _int(b.get("n")) and _int(b.get("e"))):
+            return False
+        b["t"] = ctx.tick
+        self.nbr[src] = b
+        role = b["r"]
+        self.known_role[src] = role
+        if role == LL:
+            self._heard_leader(ctx, src, b["e"])
+        if self.role in LINKABLE:
+            if role in LINKABLE:
+                if src not in self.conn.links and src not in (self.parent, self.child):
+                    self.repair.add(src)  # it thinks we are linked: test it (Algorithm 2) at our next tick
+            elif src in self.conn.links:
+                self.conn.links.discard(src)  # a repeater or the base station: no explorer links with it
+        elif role in LINKABLE and src not in (self.parent, self.child):
+            ctx.send(src, DISCONNECT, {"r": self.role, "why": "role"})  # repeaters link only parent and child
+        return True
+
+    def _heard_leader(self, ctx: Context, src: int, epoch: int) -> None:
+        """Another robot claims the local leader role with ``epoch``: the larger (epoch, id) wins (rule H5)."""
+        if epoch > self.epoch and self.role != LL:
+            self.epoch = epoch
+        if self.role != LL or src == self.id or (epoch, src) <= self._key():
+            return
+        ho = self.ho
+        if ho is not None and ho["to"] == src and ho["epoch"] == epoch:
+            if ho.get("acked") is None:
+                ho["acked"] = ctx.tick
+                ho["evidence"] = "state"
+            self._finish_handover(ctx)  # the candidate already leads: step down now
+            return
+        self.stepdowns += 1
+        took = self.took_over
+        if took is not None and took["from"] == src:
+            # we took over from src and src kept (re-took) the lead: revert to our previous role
+            if took["role"] == RP:
+                self.parent, self.child = took["parent"], src
+                self._set_role(ctx, RP)
+                self._drop_all_links(ctx, keep=())
+            else:
+                self.parent = None
+                self.conn.links.add(src)
+                self._set_role(ctx, EX)
+        else:
+            self.parent = None
+            self._set_role(ctx, EX)
+        self.epoch = epoch
+        self.took_over = None
+        self.ho = None
+
+    def _on_ll_info(self, ctx: Context, src: int, b: dict) -> bool:
+        o, s, dl, h, e = b["o"], b["s"], b["dl"], b["h"], b["e"]
+        if not (_int(o) and _int(s) and _num(dl) and _int(h) and _int(e) and _vec(b["x"]) and _vec(b["u"])):
+            return False
+        if ctx.now > dl:  # F1: expired copies are ignored
+            self.flood_stats["expired"] += 1
+            return True
+        key = (o, s)
+        if key in self.seen:  # F2: the first copy only
+            self.flood_stats["duplicates"] += 1
+            return True
+        self.seen[key] = dl
+        self.flood_stats["received"] += 1
+        if e > self.epoch and self.role != LL:
+            self.epoch = e
+        if self.role == LL and o != self.id:
+            self._heard_leader(ctx, o, e)
+        cur = self.info
+        if cur is None or (e, o) > (cur["e"], cur["o"]) or ((e, o) == (cur["e"], cur["o"]) and s > cur["s"]):
+            self.info = {"e": e, "o": o, "s": s, "x": b["x"], "u": b["u"]}
+            self.last_info = ctx.tick
+        if self.role in LINKABLE:  # F3: forward to every linked robot but the sender, while not expired
+            dsts = self.conn.links - {src}
+            if dsts:
+                self._send_to(ctx, LL_INFO, {**b, "h": h + 1}, dsts)
+                self.flood_stats["forwarded"] += 1
+        return True
+
+    def _on_connect(self, ctx: Context, src: int, b: dict) -> bool:
+        if not (isinstance(b, dict) and b.get("r") in ROLES):
+            return False
+        self.known_role[src] = b["r"]
+        if self.role in LINKABLE and b["r"] in LINKABLE and src not in (self.parent, self.child):
+            self.conn.links.add(src)  # Algorithm 2 decided on src's side; we comply (and test it next tick)
+            self.repair.add(src)
+        elif src not in (self.parent, self.child):
+            ctx.send(src, DISCONNECT, {"r": self.role, "why": "role"})
+        return True
+
+    def _on_disconnect(self, ctx: Context, src: int, b: dict) -> bool:
+        if not (isinstance(b, dict) and b.get("r") in ROLES):
+            return False
+        self.known_role[src] = b["r"]
+        self.conn.links.discard(src)
+        self.repair.discard(src)
+        return True
+
+    # ---------------------------------------------------------- Algorithm 1 messages
+    def _on_request(self, ctx: Context, src: int, b: dict) -> bool:
+        if not (isinstance(b, dict) and isinstance(b.get("role"), str) and _int(b.get("e"))
+                and _int(b.get("T")) and b.get("kind") in (EXTEND, RETRACT)):
+            self._refuse("malformed")
+            return True
+        reply = {"e": b["e"]}
+        if b["role"] not in ROLES:
+            self._refuse("unknown_role")
+            ctx.send(src, NACK, reply | {"why": "unknown_role"})
+            return True
+        if b["role"] != LL:
+            self._refuse("not_requestable")
+            ctx.send(src, NACK, reply | {"why": "not_requestable"})
+            return True
+        if src not in self.conn.links and src not in (self.parent, self.child):
+            self._refuse("not_neighbour")
+            ctx.send(src, NACK, reply | {"why": "not_neighbour"})
+            return True
+        e = b["e"]
+        p = self.pending
+        if (p is not None and p["from"] == src and p["epoch"] == e) or (
+                self.role == LL and self.epoch == e and self.took_over and self.took_over["from"] == src):
+            ctx.send(src, ACK, reply)  # a retry of what we accepted: acknowledge again
+            return True
+        if self.role == BS:
+            self._refuse("base_station")
+            ctx.send(src, NACK, reply | {"why": "base_station"})
+            return True
+        fits = (b["kind"] == EXTEND and self.role == EX) or (
+            b["kind"] == RETRACT and self.role == RP and self.child == src)
+        if not fits or p is not None:
+            self._refuse("role_conflict")
+            ctx.send(src, NACK, reply | {"why": "role_conflict"})
+            return True
+        if e <= self.epoch:
+            self._refuse("stale")
+            ctx.send(src, NACK, reply | {"why": "stale"})
+            return True
+        goal = b.get("goal")
+        self.pending = {"from": src, "epoch": e, "T": b["T"], "kind": b["kind"],
+                        "goal": goal if _vec(goal) else None, "gk": b.get("gk", -1) if _int(b.get("gk")) else -1,
+                        "at": ctx.tick}
+        self.accepted.append({"from": src, "epoch": e, "tick": ctx.tick, "T": b["T"], "kind": b["kind"]})
+        ctx.send(src, ACK, reply)
+        return True
+
+    def _on_ack(self, ctx: Context, src: int, b: dict) -> bool:
+        if not (isinstance(b, dict) and _int(b.get("e"))):
+            return False
+        ho = self.ho
+        if ho is not None and ho["to"] == src and ho["epoch"] == b["e"] and ho.get("acked") is None:
+            ho["acked"] = ctx.tick
+            ho["evidence"] = "ack"
+        return True
+
+    def _on_nack(self, ctx: Context, src: int, b: dict) -> bool:
+        if not (isinstance(b, dict) and _int(b.get("e"))):
+            return False
+        ho = self.ho
+        if ho is not None and ho["to"] == src and ho["epoch"] == b["e"] and ho.get("acked") is None:
+            ho["outcome"] = f"refused:{b.get('why')}"
+            ho["end"] = ctx.tick
+            self.ho = None
+            self.nacked[src] = ctx.tick
+        return True
+
+    # ---------------------------------------------------------- mission relay and recovery messages
+    def _on_target(self, ctx: Context, src: int, b: dict) -> bool:
+        if not (isinstance(b, dict) and _int(b.get("k")) and _vec(b.get("x"))):
+            return False
+        if src != self.parent or self.role not in (RP, LL):
+            return True
+        if b["k"] >= self.goal_k:
+            self.goal, self.goal_k = list(b["x"]), b["k"]
+        if self.role == RP and self.child is not None:
+            ctx.send(self.child, TARGET, b)
+        return True
+
+    def _on_arrived(self, ctx: Context, src: int, b: dict) -> bool:
+        if not (isinstance(b, dict) and _int(b.get("k"))):
+            return False
+        if src != self.child:
+            return True
+        if self.role == RP and self.parent is not None:
+            ctx.send(self.parent, ARRIVED, b)
+        elif self.role == BS and b["k"] == self.target_i and self.target_i < len(self.targets):
+            self.reached.append([self.target_i, ctx.tick])
+            self.target_i += 1
+            self.last_target_sent = -10**9  # announce the next one at once
+        return True
+
+    def _on_help(self, ctx: Context, src: int, b: Any) -> bool:
+        if self.role in (RP, BS) and self.child is not None:
+            pos = self._where(self.child)
+            if pos is not None:
+                ctx.send(src, WHERE, {"r": self.role, "c": self.child,
+                                      "cr": self.known_role.get(self.child, RP), "cx": _r(pos)})
+        return True
+
+    def _on_where(self, ctx: Context, src: int, b: dict) -> bool:
+        if not (isinstance(b, dict) and _int(b.get("c")) and b.get("cr") in ROLES and _vec(b.get("cx"))):
+            return False
+        if self.role == EX and self.lost:
+            h = self.head
+            # follow the reply that leads furthest down the chain: a child that leads beats a repeater
+            if h is None or b["cr"] == LL or h["role"] != LL:
+                self.head = {"id": b["c"], "role": b["cr"], "pos": list(b["cx"]), "via": src}
+                self.temp = src
+        return True
+
+    # ---------------------------------------------------------- tick
+    def on_tick(self, ctx: Context, sensed) -> None:
+        t0 = self._clock_in()
+        self.ticks += 1
+        self.ticks_role[self.role] = self.ticks_role.get(self.role, 0) + 1
+        ids = sensed.ids
+        self._sensed_ids = ids
+        self._sensed_index = {rid: k for k, rid in enumerate(ids)}
+        self._sensed_pos = sensed.positions()[:, :2] if ids else np.zeros((0, 2))
+        x = np.asarray(ctx.position[:2], dtype=float)
+        if self.prev_pos is not None:
+            self.vel = x - self.prev_pos
+        self.prev_pos = x
+        self.u = np.zeros(2)
+        self._handover_timers(ctx)
+        if self.role == BS:
+            self._tick_base(ctx)
+        elif self.role == RP:
+            self._tick_repeater(ctx, x)
+        elif self.role == LL:
+            self._tick_leader(ctx, x)
+        else:
+            self._tick_explorer(ctx, x)
+        if self.role != BS:
+            ctx.move((self.u / self.timestep).tolist())
+        self._send_state(ctx, x)
+        if ctx.tick % 20 == 0 and self.seen:
+            self.seen = {k: dl for k, dl in self.seen.items() if dl >= ctx.now}
+        ctx.set_status(role=self.role, rc=ROLE_CODE[self.role], conn=sorted(self._links_all()),
+                       parent=self.parent if self.role in (RP, LL) else None,
+                       child=self.child if self.role in (RP, BS) else None,
+                       lost=self.lost, ep=self.epoch)
+        if self.role == BS:
+            ctx.set_status(target=self.target_i, reached=len(self.reached))
+        self._clock_out(t0, self.role)
+
+    def _send_state(self, ctx: Context, x: np.ndarray) -> None:
+        dsts = self._links_all()
+        if dsts:
+            self._send_to(ctx, STATE, {"r": self.role, "p": _r(x), "v": _r(self.vel), "u": _r(self.u),
+                                       "n": len(dsts), "e": self.epoch}, dsts)
+
+    # ---------------------------------------------------------- Algorithm 1, made safe (rules H1-H6)
+    def _handover_timers(self, ctx: Context) -> None:
+        p = self.pending
+        if p is not None and ctx.tick >= p["T"]:
+            self._take_over(ctx)
+        ho = self.ho
+        if ho is None:
+            return
+        if ho.get("acked") is not None:
+            if ctx.tick >= ho["T"]:
+                self._finish_handover(ctx)
+            return
+        if ctx.tick > ho["T"] + self.lease:  # H4: lease expired without any answer - keep the lead
+            ho["outcome"] = "timeout"
+            ho["end"] = ctx.tick
+            self.epoch = ho["epoch"] + 1  # outrank a candidate that took over unheard (H5 steps it down)
+            self.ho = None
+            return
+        self._send_request(ctx, ho)  # H2: retry every tick until acknowledged
+
+    def _send_request(self, ctx: Context, ho: dict) -> None:
+        ho["sent"] += 1
+        ctx.send(ho["to"], REQUEST, {"role": LL, "e": ho["epoch"], "T": ho["T"], "kind": ho["kind"],
+                                     "goal": self.goal, "gk": self.goal_k})
+
+    def _start_handover(self, ctx: Context, to: int, kind: str) -> None:
+        ho = {"to": to, "kind": kind, "epoch": self.epoch + 1, "t": ctx.tick, "T": ctx.tick + self.switch_delay,
+              "sent": 0, "acked": None, "evidence": None, "outcome": None, "end": None}
+        self.ho = ho
+        self.handovers.append(ho)
+        self._send_request(ctx, ho)
+
+    def _finish_handover(self, ctx: Context) -> None:
+        ho = self.ho
+        self.ho = None
+        ho["outcome"] = "done"
+        ho["end"] = ctx.tick
+        self.epoch = ho["epoch"]
+        self.took_over = None
+        c = ho["to"]
+        if ho["kind"] == EXTEND:  # Algorithm 1 line 3: local leader -> repeater, its child leads
+            self.child = c
+            self.known_role[c] = LL
+            self._drop_all_links(ctx, keep=())
+            self._set_role(ctx, RP)
+        else:  # line 6: local leader -> explorer, its parent leads
+            self.known_role[c] = LL
+            self.conn.links.add(c)
+            self.parent = None
+            self._set_role(ctx, EX)
+            self.last_info = ctx.tick
+
+    def _drop_all_links(self, ctx: Context, keep=()) -> None:
+        drop = self.conn.links - set(keep)
+        for j in sorted(drop):
+            ctx.send(j, DISCONNECT, {"r": RP, "why": "role"})
+        self.conn.links = set(keep)
+
+    def _take_over(self, ctx: Context) -> None:
+        p = self.pending
+        self.pending = None
+        prev = {"from": p["from"], "role": self.role, "parent": self.parent, "kind": p["kind"]}
+        self.epoch = p["epoch"]
+        if p["kind"] == EXTEND:  # we were an explorer linked to the leader; it becomes our parent
+            self.parent = p["from"]
+            self.conn.links.discard(p["from"])
+        else:  # we were its parent repeater; it becomes one of our explorers
+            self.child = None
+            self.conn.links.add(p["from"])
+        self.known_role[p["from"]] = RP if p["kind"] == EXTEND else EX
+        if p["goal"] is not None and p["gk"] >= self.goal_k:
+            self.goal, self.goal_k = p["goal"], p["gk"]
+        self.took_over = prev
+        self.lost = False
+        self.head = self.temp = None
+        self._set_role(ctx, LL)
+
+    def _algorithm1(self, ctx: Context, x: np.ndarray) -> None:
+        xp = self._where(self.parent)
+        if xp is None:
+            return
+        d = float(np.hypot(*(x - xp)))
+        if d > self.eta_a * self.d_c:
+            best = None
+            for c in self.conn.links:
+                if ctx.tick - self.nacked.get(c, -10**9) < 20:
+                    continue
+                st = self.nbr.get(c)
+                n = st["n"] if st and st["r"] in LINKABLE else 0
+                xc = self._where(c)
+                dist_goal = float(np.hypot(*(xc - np.array(self.goal)))) if (self.goal and xc is not None) else 0.0
+                key = (-n, dist_goal, c)
+                if best is None or key < best[0]:
+                    best = (key, c)
+            if best is not None:
+                self._start_handover(ctx, best[1], EXTEND)
+            else:
+                self.stall += 1
+        elif d < self.eta_b * self.d_c and self.parent != self.base:
+            self._start_handover(ctx, self.parent, RETRACT)
+
+    # ---------------------------------------------------------- roles' ticks
+    def _tick_base(self, ctx: Context) -> None:
+        if self.target_i < len(self.targets) and self.child is not None:
+            if ctx.tick - self.last_target_sent >= self.target_every:
+                ctx.send(self.child, TARGET, {"k": self.target_i, "x": self.targets[self.target_i]})
+                self.last_target_sent = ctx.tick
+            self.goal, self.goal_k = self.targets[self.target_i], self.target_i
+
+    def _tick_repeater(self, ctx: Context, x: np.ndarray) -> None:
+        xp, xc = self._where(self.parent), self._where(self.child)
+        if xp is None or xc is None:
+            return
+        _, k1, k2, k3, *_ = self.k
+        if self.known_role.get(self.child) == LL:  # Eq. 1: the midpoint of parent and local leader
+            u = k1 * ((xp - x) + (xc - x))
+        else:  # Eq. 2: eta_a * d_c from the parent, on the line to the child
+            dp = xp - x
+            n = float(np.hypot(*dp))
+            u = k2 * (dp - self.eta_a * self.d_c * dp / n if n > 1e-9 else dp) + k3 * ((xp - x) + (xc - x))
+        self.u = cap(u, self.vmax)
+
+    def _tick_leader(self, ctx: Context, x: np.ndarray) -> None:
+        if self.ho is None and self.pending is None:
+            self._algorithm1(ctx, x)
+        if self.role != LL:
+            return
+        self._algorithm2(ctx, x)
+        k4 = self.k[4]
+        u = k4 * (np.array(self.goal) - x) if self.goal is not None else np.zeros(2)  # Eq. 3
+        xp = self._where(self.parent)
+        if xp is not None:  # H6 (ours): never drive beyond hold * d_c from the parent
+            r = x - xp
+            d = float(np.hypot(*r))
+            if d > self.hold * self.d_c:
+                rh = r / d
+                out = float(u @ rh)
+                u = u - (out + 0.5 * self.vmax) * rh if out > -0.5 * self.vmax else u
+        self.u = cap(u, self.vmax)
+        # flood u_LL and x_LL to the explorers (message expiration, Sec. III-C)
+        self.flood_seq += 1
+        self.seen[(self.id, self.flood_seq)] = ctx.now + self.expiry
+        self.info = {"e": self.epoch, "o": self.id, "s": self.flood_seq, "x": _r(x), "u": _r(self.u)}
+        self.last_info = ctx.tick
+        if self.conn.links:
+            self._send_to(ctx, LL_INFO, {"o": self.id, "s": self.flood_seq, "dl": ctx.now + self.expiry, "h": 1,
+                                         "e": self.epoch, "x": _r(x), "u": _r(self.u)}, self.conn.links)
+        if self.goal is not None and float(np.hypot(*(x - np.array(self.goal)))) <= self.arrive:
+            if self.arrived_k != self.goal_k:
+                self.arrived_k = self.goal_k
+                self.last_arrived_sent = -10**9
+        if self.arrived_k == self.goal_k >= 0 and ctx.tick - self.last_arrived_sent >= self.target_every:
+            ctx.send(self.parent, ARRIVED, {"k": self.goal_k})
+            self.last_arrived_sent = ctx.tick
+
+    def _tick_explorer(self, ctx: Context, x: np.ndarray) -> None:
+        attached = ctx.tick - self.last_info <= self.lost_after
+        if not attached and not self.lost:
+            self.lost = True
+            self.lost_episodes.append([ctx.tick, None])
+        elif attached and self.lost:
+            self.lost = False
+            self.lost_episodes[-1][1] = ctx.tick
+            self.head = self.temp = None
+        self._algorithm2(ctx, x)
+        if self.lost:
+            self.u = self._recover(ctx, x)
+            return
+        _, _, _, _, _, k5, k6, k7, k8 = self.k
+        u = np.zeros(2)
+        links = sorted(self.conn.links)
+        if links:
+            um = np.zeros(2)
+            for j in links:  # Eq. 5: velocity matching
+                st = self.nbr.get(j)
+                if st is not None:
+                    um += st["u"]
+            u += k5 / len(links) * um
+            for j in links:  # Eq. 6: distance keeping
+                xj = self._where(j)
+                if xj is None:
+                    continue
+                dj = xj - x
+                n = float(np.hypot(*dj))
+                if n > 1e-9:
+                    u += k6 * (dj - self.d_n * dj / n)
+        if self.info is not None:  # Eq. 7: follow the local leader
+            u += k7 * np.array(self.info["u"]) + k8 * (np.array(self.info["x"]) - x)
+        self.u = cap(u, self.vmax)  # Eq. 4
+
+    def _recover(self, ctx: Context, x: np.ndarray) -> np.ndarray:
+        """Sec. III-D: head to the origin; ask repeaters / the base station where their child is; go there."""
+        if ctx.tick - self.last_help >= self.help_every:
+            h = self.head
+            if h is not None and h["role"] == RP and h["id"] in self._sensed_index:
+                ctx.send(h["id"], HELP, {})  # switch the temporary connection to the found repeater
+            else:
+                ctx.broadcast(HELP, {})
+            self.last_help = ctx.tick
+            self.helps += 1
+        h = self.head
+        if h is not None:
+            k = self._sensed_index.get(h["id"])
+            goal = self._sensed_pos[k] if k is not None else np.array(h["pos"])
+            if k is None and float(np.hypot(*(goal - x))) < 0.1:
+                self.head = self.temp = None  # nobody at the place we were sent to: back to the origin
+            else:
+                return cap((goal - x) * 1e3, self.vmax)
+        return cap(-x * 1e3, self.vmax)
+
+    # ---------------------------------------------------------- Algorithm 2
+    def _algorithm2(self, ctx: Context, x: np.ndarray) -> None:
+        extra = sorted(self.repair)
+        self.repair.clear()
+        added, removed, rejected = self.conn.refresh(
+            x, self._sensed_ids, self._sensed_pos, self._linkable, self.role_changed,
+            force_all=self.lost, extra=extra, fixed=1 if self.role == LL else 0)
+        self.role_changed = False
+        for j in added:
+            ctx.send(j, CONNECT, {"r": self.role})
+        for j in sorted(set(removed) | set(rejected)):
+            if j in self._sensed_index:
+                ctx.send(j, DISCONNECT, {"r": self.role, "why": "aat"})
+
+    # ---------------------------------------------------------- reports
+    def report(self) -> dict:
+        ticks = max(self.ticks, 1)
+        if self.lost and self.lost_episodes and self.lost_episodes[-1][1] is None:
+            pass
+        return {
+            "role": self.role,
+            "roles": self.role_log,
+            "connections": sorted(self._links_all()),
+            "parent": self.parent,
+            "child": self.child,
+            "epoch": self.epoch,
+            "ticks": self.ticks,
+            "ticks_by_role": self.ticks_role,
+            "received": self.received,
+            "received_by_kind": self.received_kind,
+            "received_per_tick": self.received / ticks,
+            "cpu_s": self.cpu,
+            "cpu_by_role": self.cpu_role,
+            "cpu_us_per_tick": 1e6 * self.cpu / ticks,
+            "aat": self.conn.report(),
+            "handovers": [{k: v for k, v in h.items()} for h in self.handovers],
+            "accepted": self.accepted,
+            "refused": self.refused,
+            "stepdowns": self.stepdowns,
+            "stall_ticks": self.stall,
+            "lost_episodes": self.lost_episodes,
+            "helps": self.helps,
+            "flood": self.flood_stats,
+            "malformed": self.malformed,
+            "targets": self.targets if self.role == BS else [],
+            "reached": self.reached,
+        }
+
+    @classmethod
+    def metrics(cls, reports: dict[int, dict]) -> dict:
+        reps = [r for r in reports.values() if "role" in r]
+        if not reps:
+            return {}
+        n = len(reps)
+        hos = [h for r in reps for h in r["handovers"]]
+        cpu_role: dict[str, float] = {}
+        ticks_role: dict[str, int] = {}
+        for r in reps:
+            for k, v in r["cpu_by_role"].items():
+                cpu_role[k] = cpu_role.get(k, 0.0) + v
+            for k, v in r["ticks_by_role"].items():
+                ticks_role[k] = ticks_role.get(k, 0) + v
+        tests = sum(r["aat"]["tests"] for r in reps)
+        base = sum(r["aat"]["baseline_tests"] for r in reps)
+        refused: dict[str, int] = {}
+        for r in reps:
+            for k, v in r["refused"].items():
+                refused[k] = refused.get(k, 0) + v
+        return {
+            "robots": n,
+            "targets_reached": sum(len(r["reached"]) for r in reps),
+            "handovers": len(hos),
+            "handovers_done": sum(h["outcome"] == "done" for h in hos),
+            "handovers_extend": sum(h["kind"] == EXTEND and h["outcome"] == "done" for h in hos),
+            "handovers_retract": sum(h["kind"] == RETRACT and h["outcome"] == "done" for h in hos),
+            "handover_retries": sum(max(h["sent"] - 1, 0) for h in hos),
+            "role_changes": sum(len(r["roles"]) - 1 for r in reps),
+            "repeaters_final": sum(r["role"] == RP for r in reps),
+            "lost_episodes": sum(len(r["lost_episodes"]) for r in reps),
+            "received_per_robot_tick": sum(r["received_per_tick"] for r in reps) / n,
+            "cpu_us_per_robot_tick": sum(r["cpu_us_per_tick"] for r in reps) / n,
+            "cpu_us_per_tick_by_role": {k: 1e6 * cpu_role[k] / ticks_role[k] for k in cpu_role if ticks_role.get(k)},
+            "aat_tests": tests,
+            "aat_tests_baseline": base,
+            "aat_saving": 1 - tests / base if base else None,
+            "refused": refused,
+            "malformed": sum(r["malformed"] for r in reps),
+        }
+
+
+_HANDLERS = {
+    STATE: RoleSwitching._on_state,
+    LL_INFO: RoleSwitching._on_ll_info,
+    CONNECT: RoleSwitching._on_connect,
+    DISCONNECT: RoleSwitching._on_disconnect,
+    REQUEST: RoleSwitching._on_request,
+    ACK: RoleSwitching._on_ack,
+    NACK: RoleSwitching._on_nack,
+    TARGET: RoleSwitching._on_target,
+    ARRIVED: RoleSwitching._on_arrived,
+    HELP: RoleSwitching._on_help,
+    WHERE: RoleSwitching._on_where,
+}
+
+
+# ================================================================== the preliminary experiment's explorer
+class AATWalk(Behavior, _Timed):
+    """Sec. IV-A: explorers on a random walk (constant step, uniform direction) forming links by Algorithm 2
+    (``mode = "proposed"``, with CONNECT / DISCONNECT requests) or by the baseline that runs the acute angle
+    test on every detectable robot every tick (``mode = "baseline"``, symmetric, no messages needed).
+    The walk draws only from ``ctx.rng``, so both modes move the robots identically for one seed."""
+
+    name = "aat"
+    kinds = (CONNECT, DISCONNECT)
+    plot_field = "degree"
+
+    def __init__(self, mode: str = PROPOSED, d_c: float = 3.0, eta_c: int = 3, step: float = 1.0,
+                 walk_until: int | None = None, timestep: float = 1.0):
+        self.mode, self.step, self.walk_until, self.timestep = mode, step, walk_until, timestep
+        self.conn = Connections(mode, eta_c, float(d_c))
+        self.first = True
+        self.received = 0
+        self.ticks = 0
+        self.cpu = 0.0
+        self.cpu_role: dict[str, float] = {}
+
+    @staticmethod
+    def validate(params: dict) -> str | None:
+        if params.get("mode", PROPOSED) not in MODES:
+            return f"mode = {params.get('mode')!r} must be one of {MODES}"
+        for key in ("d_c", "step", "timestep"):
+            if key in params and (not _num(params[key]) or params[key] <= 0):
+                return f"{key} = {params[key]!r} must be a positive number"
+        if "eta_c" in params and (not _int(params["eta_c"]) or params["eta_c"] < 0):
+            return f"eta_c = {params['eta_c']!r} must be a non-negative integer"
+        return None
+
+    def on_frame(self, ctx: Context, frame: Frame) -> None:
+        self.received += 1
+        if frame.kind == CONNECT:
+            self.conn.links.add(frame.src)
+        else:
+            self.conn.links.discard(frame.src)
+
+    def on_tick(self, ctx: Context, sensed) -> None:
+        t0 = self._clock_in()
+        self.ticks += 1
+        ids = sensed.ids
+        pos = sensed.positions()[:, :2] if ids else np.zeros((0, 2))
+        x = np.asarray(ctx.position[:2], dtype=float)
+        added, removed, _ = self.conn.refresh(x, ids, pos, lambda _j: True, self.first)
+        self.first = False
+        if self.mode == PROPOSED:  # the decision is no longer symmetric: tell the other side
+            for j in added:
+                ctx.send(j, CONNECT, {"r": EX})
+            for j in removed:
+                if j in ids:
+                    ctx.send(j, DISCONNECT, {"r": EX, "why": "aat"})
+        if self.walk_until is None or ctx.tick < self.walk_until:
+            a = float(ctx.rng.uniform(0.0, 2 * math.pi))
+            ctx.move([self.step * math.cos(a) / self.timestep, self.step * math.sin(a) / self.timestep])
+        else:
+            ctx.move([0.0, 0.0])
+        ctx.set_status(role=EX, conn=sorted(self.conn.links), degree=len(self.conn.links))
+        self._clock_out(t0, EX)
+
+    def report(self) -> dict:
+        return {"role": EX, "connections": sorted(self.conn.links), "aat": self.conn.report(),
+                "received": self.received, "ticks": self.ticks, "cpu_s": self.cpu}
+
+    @classmethod
+    def metrics(cls, reports: dict[int, dict]) -> dict:
+        reps = list(reports.values())
+        if not reps:
+            return {}
+        n = len(reps)
+        return {
+            "robots": n,
+            "aat_tests_per_robot": sum(r["aat"]["tests"] for r in reps) / n,
+            "aat_tests_baseline_per_robot": sum(r["aat"]["baseline_tests"] for r in reps) / n,
+            "aat_wall_s_per_robot": sum(r["aat"]["wall_s"] for r in reps) / n,
+            "aat_runs_per_robot": sum(r["aat"]["runs"] for r in reps) / n,
+        }
