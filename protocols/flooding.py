@@ -204,11 +204,19 @@ def delivered(result: Result) -> Outcome:
     p = _params(result)
     deadline = None if p["expiry"] is None else p["at"] + p["expiry"]
     _, deliveries = _flood_frames(result)
-    expected = {p["origin"]} | {dst for _, _, dst, _, at in deliveries if deadline is None or at <= deadline}
-    got = set(_receivers(result))
+    arrivals: dict[int, int] = {}
+    for _, _, dst, _, at in deliveries:
+        if deadline is None or at <= deadline:
+            arrivals[dst] = min(at, arrivals.get(dst, at))
+    expected = {p["origin"]} | set(arrivals)
+    receivers = _receivers(result)
+    got = set(receivers)
     ok = got == expected
+    first = min([arrivals.get(r, p["at"]) for r in expected - got] + [receivers[r]["tick"] for r in got - expected],
+                default=None)
     return Outcome("flooding.delivered", ok, value=len(got), bound=len(expected),
-                   detail="" if ok else f"missing {sorted(expected - got)[:10]} extra {sorted(got - expected)[:10]}")
+                   detail="" if ok else f"missing {sorted(expected - got)[:10]} extra {sorted(got - expected)[:10]}",
+                   first_tick=first)
 
 
 def component(result: Result) -> Outcome:

@@ -144,9 +144,29 @@ class Result:
         """Each robot's radio range (robots added during the run included)."""
         return {rid: r["range"] for rid, r in self.robots.items()}
 
+    def severed_at(self, tick: int) -> tuple[set[frozenset], dict[int, int]]:
+        """Cut links and partition groups in force at ``tick``, replayed from the trace's events."""
+        cuts: set[frozenset] = set()
+        group: dict[int, int] = {}
+        for rec in self.trace:
+            if rec["t"] > tick:
+                break
+            for ev in rec.get("ev", ()):
+                if "cut" in ev:
+                    cuts |= {frozenset(p) for p in ev["cut"]}
+                elif "restore" in ev:
+                    cuts -= {frozenset(p) for p in ev["restore"]}
+                elif "partition" in ev:
+                    group = {r: g + 1 for g, members in enumerate(ev["partition"]) for r in members}
+                elif "heal" in ev:
+                    cuts, group = set(), {}
+        return cuts, group
+
     def graph_at(self, tick: int, directed: bool = False) -> nx.Graph:
-        """The true radio graph at ``tick`` (alive robots; mutual links unless ``directed``)."""
+        """The true radio graph at ``tick``: alive robots, links in range (mutual unless ``directed``),
+        minus cut links and links between partition groups."""
         rec = self.record(tick)
+        cuts, group = self.severed_at(tick)
         ranges = self.ranges()
         ids = [row[0] for row in rec.get("pos", [])]
         pos = np.array([row[1:] for row in rec.get("pos", [])], dtype=float)
@@ -156,6 +176,8 @@ class Result:
             d = np.linalg.norm(pos - pos[a], axis=1)
             for b in np.flatnonzero(d <= ranges[ids[a]]):
                 if b == a:
+                    continue
+                if cuts and frozenset((ids[a], ids[b])) in cuts or group.get(ids[a], 0) != group.get(ids[b], 0):
                     continue
                 if directed:
                     g.add_edge(ids[a], ids[b])
