@@ -124,10 +124,13 @@ async def run_world(
                 endpoint = link.locators()[0]
                 procs = spawn_hosts(endpoint, run_id, split(n, k))
             with quiet_gc():
-                async with asyncio.TaskGroup() as tg:
-                    tg.create_task(world.run())
-                    if k == 0 and local_host:
-                        tg.create_task(_local_host(link, keys))
+                try:
+                    async with asyncio.TaskGroup() as tg:
+                        tg.create_task(world.run())
+                        if k == 0 and local_host:
+                            tg.create_task(_local_host(link, keys))
+                except BaseExceptionGroup as group:  # report the first failure as itself (e.g. robots never claimed)
+                    raise group.exceptions[0] from None
         finally:
             try:
                 loop.remove_signal_handler(signal.SIGINT)
@@ -234,23 +237,25 @@ def run(scenario, *, out: str | Path | None = None, processes: int | None = None
     ``run__seed=3``); ``overrides`` takes ``"section.key=value"`` strings as on
     the command line. Output goes to ``out`` (default ``out/<run.name>``).
     """
-    from swarmactors.scenario import load, resolve_scenario
+    import copy
 
-    items = list(overrides) + [f"{k.replace('__', '.')}={_toml_value(v)}" for k, v in settings.items()]
-    if hasattr(scenario, "resolve"):  # a swarmactors.Scenario
-        sc = scenario.resolve(items)
+    from swarmactors.scenario import read_raw, resolve_scenario, set_value
+
+    if hasattr(scenario, "raw"):  # a swarmactors.Scenario
+        raw, source = copy.deepcopy(scenario.raw), f"<Scenario {scenario.raw['run'].get('name')}>"
     elif isinstance(scenario, dict):
-        sc = resolve_scenario(scenario, "<dict>", items)
+        raw, source = copy.deepcopy(scenario), "<dict>"
     else:
-        sc = load(scenario, items)
-    k = sc["run"]["processes"] if processes is None else processes
+        raw, source = read_raw(scenario), str(scenario)
+    for key, value in settings.items():
+        set_value(raw, key.replace("__", "."), value, source)
+    if processes is not None:
+        set_value(raw, "run.processes", processes, source)
+    sc = resolve_scenario(raw, source, list(overrides))
+    k = sc["run"]["processes"]
     out_dir = Path(out) if out is not None else Path("out") / sc["run"]["name"]
     endpoints = Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"])
     return asyncio.run(run_world(sc, out_dir, endpoints, new_run_id(sc["run"]["name"]), processes=k))
-
-
-def _toml_value(v) -> str:
-    return json.dumps(v) if not isinstance(v, bool) else ("true" if v else "false")
 
 
 def write_result(data: dict, out_dir: Path) -> Result:

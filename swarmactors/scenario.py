@@ -102,14 +102,17 @@ EVENT_ACTIONS = ("kill", "kill_fraction", "add", "cut", "restore", "partition", 
 
 def load(path: str | Path, overrides: list[str] = ()) -> dict:
     """Read, override, validate and resolve the scenario file at ``path``."""
-    source = str(path)
+    return resolve_scenario(read_raw(path), str(path), overrides)
+
+
+def read_raw(path: str | Path) -> dict:
+    """The scenario file at ``path`` as parsed TOML (``ScenarioError`` naming the file)."""
     try:
-        raw = tomllib.loads(Path(path).read_text())
+        return tomllib.loads(Path(path).read_text())
     except FileNotFoundError:
-        raise ScenarioError(source, "file", "no such file") from None
+        raise ScenarioError(str(path), "file", "no such file") from None
     except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(source, "syntax", str(exc)) from None
-    return resolve_scenario(raw, source, overrides)
+        raise ScenarioError(str(path), "syntax", str(exc)) from None
 
 
 def resolve_scenario(raw: dict, source: str = "<scenario>", overrides: list[str] = ()) -> dict:
@@ -158,6 +161,11 @@ def apply_override(raw: dict, item: str, source: str = "--set") -> None:
         value = tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         value = text
+    set_value(raw, path, value, source)
+
+
+def set_value(raw: dict, path: str, value: Any, source: str = "--set") -> None:
+    """Set the value at dotted ``path`` (list items by index) in a raw scenario."""
     parts = path.split(".")
     node: Any = raw
     for i, part in enumerate(parts[:-1]):
