@@ -11,6 +11,7 @@ import argparse
 import asyncio
 import json
 import logging
+import os
 import sys
 from pathlib import Path
 
@@ -59,6 +60,7 @@ def build_parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run a scenario: world and robots, progress, result.json, trace, plot")
     scenario_args(run)
     run.add_argument("--processes", type=int, help="robot host processes K (0 = robots in the world's process)")
+    _view_args(run)
 
     world = sub.add_parser("world", help="run only the world; robot hosts join with `swarmactors robots`")
     scenario_args(world)
@@ -70,6 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="TLS, a join credential and access control; certificates are made in DIR if missing")
     world.add_argument("--tls-name", action="append", default=[],
                        help="extra DNS name or IP address for the world's certificate (repeatable)")
+    _view_args(world)
 
     chk = sub.add_parser("check", help="run a protocol family's conformance suite against an implementation")
     chk.add_argument("family", nargs="?", default="all", help="family name, or all (default)")
@@ -91,7 +94,50 @@ def build_parser() -> argparse.ArgumentParser:
     robots.add_argument("--count", type=int, help="robots to ask for (default: all unclaimed)")
     robots.add_argument("--mode", choices=["peer", "client"], default="client")
     robots.add_argument("--secure", type=Path, metavar="DIR", help="directory with ca.pem and host.credential")
+
+    view = sub.add_parser("view", help="watch a running world in the browser (live viewer)")
+    view.add_argument("--connect", default="tcp/127.0.0.1:7447", help="the world's Zenoh endpoint")
+    view.add_argument("--run", dest="run_id", help="run id (default: the only run answering there)")
+    _server_args(view, "--port", "--host")
+
+    replay = sub.add_parser("replay", help="replay a trace: in the browser with a time slider, or as GIF/MP4")
+    replay.add_argument("trace", type=Path, help="a trace.msgpack file (or a run's output directory)")
+    what = replay.add_mutually_exclusive_group()
+    what.add_argument("--view", action="store_true", help="serve the page with a time slider (the default)")
+    what.add_argument("--gif", type=Path, metavar="OUT", help="write an animated GIF")
+    what.add_argument("--mp4", type=Path, metavar="OUT", help="write an MP4 (needs ffmpeg)")
+    what.add_argument("--events", action="store_true",
+                      help="print the run's control actions as [[events]] for a scenario")
+    replay.add_argument("--every", type=int, default=1, help="animation: render every N-th tick (default 1)")
+    replay.add_argument("--fps", type=float, default=10.0, help="animation: frames per second (default 10)")
+    replay.add_argument("--field", help="animation: status field that colours robots (default: the protocol's)")
+    replay.add_argument("--quiet", action="store_true", help="no progress display")
+    _server_args(replay, "--port", "--host")
+
+    sweep = sub.add_parser("sweep", help="run a grid of parameters x trials over worker processes, to a CSV")
+    scenario_args(sweep)
+    sweep.add_argument("--grid", action="append", default=[], metavar="SECTION.KEY=V1,V2,...",
+                       help="values of one key to sweep (repeatable: the grid is their product)")
+    sweep.add_argument("--trials", type=int, default=1, help="runs per grid point, seeds derived from run.seed")
+    sweep.add_argument("--workers", type=int, default=max(1, (os.cpu_count() or 2) - 1),
+                       help="worker processes (default: CPUs - 1)")
+    sweep.add_argument("--keep", choices=["all", "failed", "none"], default="failed",
+                       help="which trials keep their result.json and trace (default: failed)")
     return p
+
+
+def _server_args(sp, port: str, host: str) -> None:
+    sp.add_argument(port, dest="view_port", type=int, default=8050, metavar="PORT",
+                    help="viewer HTTP port (default 8050; 0 picks a free one)")
+    sp.add_argument(host, dest="view_host", default="127.0.0.1", metavar="ADDR",
+                    help="address the viewer listens on (default 127.0.0.1)")
+
+
+def _view_args(sp) -> None:
+    sp.add_argument("--view", action="store_true",
+                    help="serve the live viewer (lockstep runs wait after tick 0 for ▶ in the page)")
+    _server_args(sp, "--view-port", "--view-host")
+    sp.add_argument("--no-plots", action="store_true", help="do not write the per-run charts beside result.json")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -105,6 +151,10 @@ def main(argv: list[str] | None = None) -> int:
             return _robots(args)  # bad credentials files raise ValueError: exit 2
         if args.command == "check":
             return _check(args, err)
+        if args.command in ("view", "replay", "sweep"):
+            from swarmactors.see import command  # the viewer, replays and sweeps (docs/viewer.md)
+
+            return command(args, err)
         sc = _load(args)
     except (ScenarioError, UsageError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)  # plain text: paths and keys must not be wrapped
@@ -149,9 +199,17 @@ def _run(args, sc: dict, err: Console) -> int:
         endpoints = Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"])
         run_id, local = new_run_id(sc["run"]["name"]), True
     progress = RunProgress(sc["run"]["ticks"], sc["run"]["name"], quiet=args.quiet)
+    session = None
+    if args.view:
+        from swarmactors.see import view_session
+
+        session = view_session(args)
     with progress:
-        result = asyncio.run(run_world(sc, out_dir, endpoints, run_id, processes=sc["run"]["processes"],
-                                       local_host=local, on_tick=progress.on_tick))
+        if session is not None:
+            result = session.run(sc, out_dir, endpoints, run_id, sc["run"]["processes"], local, progress.on_tick)
+        else:
+            result = asyncio.run(run_world(sc, out_dir, endpoints, run_id, processes=sc["run"]["processes"],
+                                           local_host=local, on_tick=progress.on_tick))
     field = _plot_field(sc)
     if result.trace_path is not None or result["robots"]:
         try:
@@ -160,11 +218,17 @@ def _run(args, sc: dict, err: Console) -> int:
             plot_run(result, out_dir / "swarm.png", field)
         except Exception as exc:  # a plot must never cost the run its result
             err.print(f"[yellow]plot skipped:[/] {exc}")
+    if not args.no_plots and result.trace_path is not None:
+        from swarmactors.see import write_run_charts
+
+        write_run_charts(result, out_dir, field, err)
     if args.json:
         print(json.dumps({k: result.data[k] for k in ("run_id", "ticks", "wall_s", "trace_hash", "world",
                                                      "metrics", "checks", "interrupted")}))
     elif not args.quiet:
         err.print(summary_table(result.data, out_dir))
+    if session is not None:
+        session.linger()  # the page shows the run's trace until Ctrl-C
     if result["interrupted"]:
         return EXIT_INTERRUPTED
     return EXIT_OK if result.passed else EXIT_CHECK

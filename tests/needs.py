@@ -2,8 +2,8 @@
 
 A test that needs Docker, root or network namespaces skips with the reason when
 the thing is missing, unless an environment flag demands it (then it fails):
-SWARMACTORS_REQUIRE_DOCKER=1, SWARMACTORS_REQUIRE_NETNS=1. `.ci/run` sets the
-flags for what its machine has.
+SWARMACTORS_REQUIRE_DOCKER=1, SWARMACTORS_REQUIRE_NETNS=1,
+SWARMACTORS_REQUIRE_BROWSER=1. `.ci/run` sets the flags for what its machine has.
 """
 
 from __future__ import annotations
@@ -50,3 +50,17 @@ def require_netns() -> None:
     if ok:
         ok = subprocess.run(["ip", "netns", "list"], capture_output=True).returncode == 0
     _require("SWARMACTORS_REQUIRE_NETNS", ok, "network namespaces need root and iproute2 (`ip netns`)")
+
+
+BROWSERS = ("/usr/bin/chromium", "/usr/bin/chromium-browser")
+
+
+def require_browser() -> str:
+    """The system Chromium (Debian's `chromium` package) and Playwright to drive it; never a downloaded browser."""
+    path = next((p for p in BROWSERS if os.access(p, os.X_OK)), None) or shutil.which("chromium")
+    _require("SWARMACTORS_REQUIRE_BROWSER", path is not None, "no system Chromium (apt-get install chromium)")
+    try:
+        import playwright.sync_api  # noqa: F401
+    except ImportError:
+        _require("SWARMACTORS_REQUIRE_BROWSER", False, "Playwright is not installed (pip install '.[test]')")
+    return path

@@ -10,6 +10,7 @@ import re
 from dataclasses import dataclass
 
 _RUN_ID = re.compile(r"^[A-Za-z0-9_.-]{1,64}$")
+CONTROL_ANY = "swarmactors/*/control"  # every run's control queryable (to find the runs on a network)
 
 
 @dataclass(frozen=True)

@@ -152,6 +152,33 @@ class Link:
         result = await future
         return result
 
+    async def query_all(self, key: str, payload: bytes = b"", *, timeout: float = 3.0) -> list[bytes]:
+        """Send a query (``key`` may hold wildcards) and return every successful reply's payload.
+
+        Waits until every matching queryable answered or ``timeout`` passed; an
+        empty list means nobody answered (used to find the runs on a network).
+        """
+        loop = self.loop
+        future: asyncio.Future = loop.create_future()
+        replies: list[bytes] = []
+
+        def on_reply(reply: zenoh.Reply) -> None:
+            if reply.ok is not None:
+                replies.append(reply.ok.payload.to_bytes())
+
+        def on_done() -> None:
+            loop.call_soon_threadsafe(lambda: future.done() or future.set_result(list(replies)))
+
+        self.session.get(
+            key,
+            zenoh.handlers.Callback(on_reply, on_done, indirect=False),
+            payload=payload,
+            timeout=timeout,
+            target=zenoh.QueryTarget.ALL,
+            consolidation=zenoh.ConsolidationMode.NONE,
+        )
+        return await future
+
     # -- liveliness --------------------------------------------------------
     def declare_token(self, key: str) -> None:
         """Hold a liveliness token on ``key`` until the session closes."""

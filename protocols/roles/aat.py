@@ -12,8 +12,10 @@ bit for bit, and so does the oracle on the trace's positions.
 
 Cost unit: one *angle test* is one evaluation of the dot product above for one (candidate, witness) pair. The
 acute angle test of candidate j against the witness set R_k costs |R_k| - 1 tests (every sensed robot but j);
-the circle test of Algorithm 2 lines 9-15 costs |A_i| x (|R_l| - 1). Counted this way, the cost does not
-depend on the machine; the wall time of the same code is measured beside it.
+the circle test of Algorithm 2 lines 9-15 costs |A_i| x (|R_l| - 1). A link whose circle test failed is not
+tested again (it cannot pass), the one departure from the letter of lines 9-25, with the same result.
+Counted this way, the cost does not depend on the machine; the wall time of the same code is measured
+beside it.
 """
 
 from __future__ import annotations
@@ -62,10 +64,12 @@ class Connections:
         self.calls = 0
         self.wall = 0.0  # seconds spent in refresh
 
-    def refresh(self, xi: np.ndarray, ids: list[int], pos: np.ndarray, linkable, role_changed: bool,
+    def refresh(self, xi: np.ndarray, ids: list[int], pos: np.ndarray, unlinkable, role_changed: bool,
                 force_all: bool = False, extra=(), fixed: int = 0) -> tuple[list[int], list[int], list[int]]:
-        """One tick of Algorithm 2. ``ids``/``pos``: what the robot sensed (R_k, the witnesses);
-        ``linkable(id)``: whether that robot may be linked (local leader or explorer, as far as known);
+        """Run one tick of Algorithm 2.
+
+        ``ids``/``pos``: the sensed robots taking part (R_k, the witnesses);
+        ``unlinkable``: ids that may witness but not be linked (a local leader's parent, chain links);
         ``extra``: robots to test anyway (a robot that believes it is linked to us).
 
         Returns (added, removed, rejected): links formed, links dropped, and ``extra`` robots that failed.
@@ -77,9 +81,10 @@ class Connections:
         old = self.links
         # A link to a robot no longer sensed, beyond d_c, or known not to be linkable is gone.
         near = within2(xi, pos, self.d_c) if w else np.zeros(0, dtype=bool)
-        keep = {j for j in old if j in index and near[index[j]] and linkable(j)}
-        cand = [k for k in range(w) if near[k] and linkable(ids[k])]  # R_l, as indices
+        keep = {j for j in old if j in index and near[index[j]] and j not in unlinkable}
+        cand = [k for k in np.flatnonzero(near).tolist() if ids[k] not in unlinkable]  # R_l, as indices
         self.baseline_tests += len(cand) * max(w - 1, 0)
+        known_fail: set[int] = set()  # links whose circle test just failed: their AAT cannot pass
         if self.mode == BASELINE or role_changed or force_all or len(keep) + fixed < self.eta_c:
             r_aat = set(cand)  # lines 4-7 (and the baseline: every detectable robot, every tick)
         else:  # lines 9-15: only links whose circle C_ij now holds another robot, and those robots
@@ -87,33 +92,31 @@ class Connections:
             if keep:
                 lk = [index[j] for j in sorted(keep)]
                 blk = blocked(xi, pos[lk], pos)
-                for row, kj in enumerate(lk):
-                    blk[row, kj] = False
+                blk[np.arange(len(lk)), lk] = False
                 self.tests += len(lk) * (w - 1)
-                cand_set = set(cand)
-                for row, kj in enumerate(lk):
-                    hits = np.flatnonzero(blk[row])
-                    if hits.size:
-                        r_aat.add(kj)
-                        r_aat.update(int(k) for k in hits if int(k) in cand_set)
-        extra_idx = {index[j] for j in extra if j in index and near[index[j]] and linkable(j)}
-        r_aat |= extra_idx
+                rows = np.flatnonzero(blk.any(axis=1)).tolist()
+                if rows:
+                    cand_set = set(cand)
+                    for row in rows:
+                        known_fail.add(lk[row])
+                        r_aat.update(k for k in np.flatnonzero(blk[row]).tolist() if k in cand_set)
+        extra_idx = {index[j] for j in extra if j in index and near[index[j]] and j not in unlinkable}
+        r_aat = (r_aat | extra_idx) - known_fail
         passed: set[int] = set()
-        failed: set[int] = set()
+        failed: set[int] = {ids[k] for k in known_fail}
         if r_aat:  # lines 17-25
             self.runs += 1
             order = sorted(r_aat)
             blk = blocked(xi, pos[order], pos)
-            for row, kj in enumerate(order):
-                blk[row, kj] = False
+            blk[np.arange(len(order)), order] = False
             self.tests += len(order) * (w - 1)
-            ok = ~blk.any(axis=1)
+            ok = (~blk.any(axis=1)).tolist()
             for row, kj in enumerate(order):
                 (passed if ok[row] else failed).add(ids[kj])
         new = passed | (keep - failed)
         self.links = new
         self.wall += time.perf_counter() - t0
-        rejected = sorted(ids[k] for k in extra_idx if ids[k] in failed)
+        rejected = sorted(ids[k] for k in extra_idx if ids[k] in failed)  # (extra robots are not links)
         rejected += sorted(j for j in extra if j not in index or not near[index[j]])
         return sorted(new - old), sorted(old - new), rejected
 

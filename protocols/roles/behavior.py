@@ -44,15 +44,16 @@ EXTEND, RETRACT = "extend", "retract"
 
 
 def _num(v: Any) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    return type(v) in (int, float) and math.isfinite(v)
 
 
 def _int(v: Any) -> bool:
-    return isinstance(v, int) and not isinstance(v, bool)
+    return type(v) is int
 
 
 def _vec(v: Any) -> bool:
-    return isinstance(v, (list, tuple)) and len(v) == 2 and all(_num(x) for x in v)
+    return (type(v) in (list, tuple) and len(v) == 2 and type(v[0]) in (int, float) and type(v[1]) in (int, float)
+            and math.isfinite(v[0]) and math.isfinite(v[1]))
 
 
 def cap(u: np.ndarray, vmax: float) -> np.ndarray:
@@ -85,12 +86,12 @@ class RoleSwitching(Behavior, _Timed):
     plot_field = "rc"  # role code: 0 base station, 1 repeater, 2 local leader, 3 explorer
 
     def __init__(self, leader: int, base: int = 0, targets: list | dict | None = None, d_c: float = 1.5,
-                 eta_a: float = 0.8, eta_b: float = 0.3, eta_c: int = 3, aat: str = PROPOSED,
+                 d_s: float | None = None, eta_a: float = 0.8, eta_b: float = 0.15, eta_c: int = 3, aat: str = PROPOSED,
                  k1: float = 0.05, k2: float = 0.1, k3: float = 0.02, k4: float = 0.1, k5: float = 0.5,
                  k6: float = 0.05, k7: float = 0.5, k8: float = 0.02, d_n: float = 0.6, vmax: float = 0.03,
                  timestep: float = 1.0, expiry: int = 15, lost_after: int = 8, help_every: int = 5,
                  target_every: int = 10, arrive: float = 0.1, switch_delay: int = 3, lease: int = 6,
-                 hold: float = 0.95):
+                 hold: float = 0.9, margin: float = 0.05):
         self.leader, self.base = leader, base
         self.targets_param = targets
         self.d_c, self.eta_a, self.eta_b, self.eta_c = float(d_c), eta_a, eta_b, eta_c
@@ -98,12 +99,15 @@ class RoleSwitching(Behavior, _Timed):
         self.d_n, self.vmax, self.timestep = d_n, vmax, timestep
         self.expiry, self.lost_after, self.help_every, self.target_every = expiry, lost_after, help_every, target_every
         self.arrive, self.switch_delay, self.lease, self.hold = arrive, switch_delay, lease, hold
-        self.conn = Connections(aat, eta_c, self.d_c)
+        self.margin = margin
+        self.d_s = float(d_s) if d_s is not None else self.d_c
+        self.conn = Connections(aat, eta_c, min(self.d_s, self.d_c))
         self.role = EX
         self.role_changed = True  # Algorithm 2 line 4: the first tick counts as a change
         self.parent: int | None = None
         self.child: int | None = None
         self.epoch = 0  # leadership epoch held (local leader) or the highest known (others)
+        self.issued = 0  # the highest epoch this robot put in a request
         self.nbr: dict[int, dict] = {}  # latest STATE per robot
         self.known_role: dict[int, str] = {}
         self.repair: set[int] = set()  # robots that believe they are linked to us (STATE received)
@@ -133,12 +137,14 @@ class RoleSwitching(Behavior, _Timed):
         self.accepted: list[dict] = []
         self.refused: dict[str, int] = {}
         self.nacked: dict[int, int] = {}  # candidate -> tick it refused (skip it for a while)
+        self.decided: dict[tuple[int, int], str] = {}  # (requester, epoch) -> why we refused it
         self.stepdowns = 0
         # recovery
         self.lost = False
         self.lost_episodes: list[list[int]] = []
         self.head: dict | None = None  # {id, role, pos, via}
         self.temp: int | None = None
+        self.temps: list[list] = []  # [tick, robot connected to temporarily, its child, the child's role]
         self.last_help = -10**9
         self.helps = 0
         # accounting
@@ -149,6 +155,7 @@ class RoleSwitching(Behavior, _Timed):
         self.ticks_role: dict[str, int] = {}
         self.cpu = 0.0
         self.cpu_role: dict[str, float] = {}
+        self.frame_cpu = 0.0
         self.malformed = 0
         self.stall = 0
 
@@ -160,13 +167,15 @@ class RoleSwitching(Behavior, _Timed):
                 return f"{key} = {params[key]!r} must be a robot id (non-negative integer)"
         if params.get("leader") == params.get("base", 0):
             return "the base station cannot be the initial local leader"
+        if params.get("d_s") is not None and (not _num(params["d_s"]) or params["d_s"] <= 0):
+            return f"d_s = {params['d_s']!r} must be a positive number"
         for key in ("d_c", "eta_a", "eta_b", "vmax", "timestep", "d_n", "arrive", "hold"):
             if key in params and (not _num(params[key]) or params[key] <= 0):
                 return f"{key} = {params[key]!r} must be a positive number"
         for key in ("eta_a", "eta_b", "hold"):
             if key in params and params[key] >= 1:
                 return f"{key} = {params[key]!r} must be below 1 (a fraction of d_c)"
-        if params.get("eta_b", 0.3) >= params.get("eta_a", 0.8):
+        if params.get("eta_b", 0.15) >= params.get("eta_a", 0.8):
             return "eta_b must be smaller than eta_a"
         for key in ("eta_c", "expiry", "lost_after", "help_every", "target_every", "switch_delay", "lease"):
             if key in params and (not _int(params[key]) or params[key] < 1):
@@ -201,20 +210,35 @@ class RoleSwitching(Behavior, _Timed):
             out.add(self.child)
         return out
 
-    def _linkable(self, rid: int) -> bool:
-        return self.known_role.get(rid, EX) in LINKABLE and rid not in (self.parent, self.child, self.base)
+    def _participants(self) -> tuple[list[int], np.ndarray]:
+        """Return the sensed robots that take part in Algorithm 2 (its R_k and R_l).
+
+        Every sensed robot not known to be a repeater or the base station ("all robots' roles are either
+        local leaders or explorers in Algorithm 2"). A robot whose role we do not know yet counts: it can
+        only remove links.
+        """
+        kr = self.known_role
+        ids = self._sensed_ids
+        idx = [k for k, r in enumerate(ids) if kr.get(r, EX) in LINKABLE]
+        if len(idx) == len(ids):
+            return ids, self._sensed_pos
+        return [ids[k] for k in idx], self._sensed_pos[idx]
 
     def _send_to(self, ctx: Context, kind: str, body: Any, dsts: set[int]) -> None:
-        """One radio broadcast heard only by ``dsts`` (everyone else sensed is excluded)."""
+        """Send to the robots ``dsts`` only.
+
+        Addressed frames to one or two, else one radio broadcast with every other robot in range excluded.
+        """
         if not dsts:
             return
-        if len(dsts) == 1:
-            ctx.send(next(iter(dsts)), kind, body)
+        if len(dsts) <= 2 or self.d_s < self.d_c:  # robots beyond d_s but in radio range cannot be excluded
+            for d in sorted(dsts):
+                ctx.send(d, kind, body)
             return
         ctx.broadcast(kind, body, exclude=[r for r in self._sensed_ids if r not in dsts])
 
     def _where(self, rid: int | None) -> np.ndarray | None:
-        """A robot's position: sensed this tick if it is in range, else from its last STATE."""
+        """Return a robot's position: sensed this tick if it is in range, else from its last STATE."""
         if rid is None:
             return None
         k = self._sensed_index.get(rid)
@@ -226,8 +250,12 @@ class RoleSwitching(Behavior, _Timed):
     def _key(self) -> tuple[int, int]:
         return (self.epoch, self.id)
 
-    def _refuse(self, reason: str) -> None:
+    def _refuse(self, reason: str, src: int | None = None, epoch: int | None = None) -> None:
         self.refused[reason] = self.refused.get(reason, 0) + 1
+        if src is not None:
+            self.decided[(src, epoch)] = reason
+            if len(self.decided) > 64:
+                self.decided.pop(next(iter(self.decided)))
 
     # ---------------------------------------------------------- start
     def on_start(self, ctx: Context) -> None:
@@ -258,29 +286,28 @@ class RoleSwitching(Behavior, _Timed):
 
     # ---------------------------------------------------------- frames
     def on_frame(self, ctx: Context, frame: Frame) -> None:
-        t0 = self._clock_in()
+        t0 = time.perf_counter()
         self.received += 1
-        self.received_kind[frame.kind] = self.received_kind.get(frame.kind, 0) + 1
-        body = frame.body
+        kind = frame.kind
+        self.received_kind[kind] = self.received_kind.get(kind, 0) + 1
         try:
-            handler = _HANDLERS[frame.kind]
-            ok = handler(self, ctx, frame.src, body)
+            ok = _HANDLERS[kind](self, ctx, frame.src, frame.body)
         except (TypeError, KeyError, ValueError, IndexError, AttributeError):
             ok = False
         if ok is False:
             self.malformed += 1
-        self._clock_out(t0, self.role)
+        self.frame_cpu += time.perf_counter() - t0  # charged to the role at the next tick
 
     def _on_state(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (isinstance(b, dict) and b.get("r") in ROLES and _vec(b.get("p")) and _vec(b.get("u"))
-                and _int(b.get("n")) and _int(b.get("e"))):
+        if not (type(b) is dict and b.get("r") in ROLES and _vec(b.get("p")) and _vec(b.get("u"))
+                and type(b.get("n")) is int and type(b.get("e")) is int):
             return False
-        b["t"] = ctx.tick
         self.nbr[src] = b
         role = b["r"]
         self.known_role[src] = role
         if role == LL:
-            self._heard_leader(ctx, src, b["e"])
+            pa = b.get("pa")
+            self._heard_leader(ctx, src, b["e"], pa if type(pa) is int else None)
         if self.role in LINKABLE:
             if role in LINKABLE:
                 if src not in self.conn.links and src not in (self.parent, self.child):
@@ -291,11 +318,20 @@ class RoleSwitching(Behavior, _Timed):
             ctx.send(src, DISCONNECT, {"r": self.role, "why": "role"})  # repeaters link only parent and child
         return True
 
-    def _heard_leader(self, ctx: Context, src: int, epoch: int) -> None:
-        """Another robot claims the local leader role with ``epoch``: the larger (epoch, id) wins (rule H5)."""
+    def _heard_leader(self, ctx: Context, src: int, epoch: int, parent: int | None = None,
+                      flood: bool = False) -> None:
+        """Another robot claims the local leader role with ``epoch``: the larger (epoch, id) wins (rule H5).
+
+        A local leader that hears of a larger one steps down into the role the chain gives it: repeater (its
+        child: that leader) when that leader names it as parent, explorer otherwise. ``parent`` comes with a
+        STATE; a flood carries none, so a flood is acted on only when its origin is not a robot we link
+        (that one's STATE tells us more, one tick later).
+        """
         if epoch > self.epoch and self.role != LL:
             self.epoch = epoch
         if self.role != LL or src == self.id or (epoch, src) <= self._key():
+            return
+        if flood and (src in self.conn.links or src == self.parent):
             return
         ho = self.ho
         if ho is not None and ho["to"] == src and ho["epoch"] == epoch:
@@ -305,20 +341,19 @@ class RoleSwitching(Behavior, _Timed):
             self._finish_handover(ctx)  # the candidate already leads: step down now
             return
         self.stepdowns += 1
-        took = self.took_over
-        if took is not None and took["from"] == src:
-            # we took over from src and src kept (re-took) the lead: revert to our previous role
-            if took["role"] == RP:
-                self.parent, self.child = took["parent"], src
-                self._set_role(ctx, RP)
-                self._drop_all_links(ctx, keep=())
-            else:
-                self.parent = None
+        if ho is not None:
+            ho["outcome"], ho["end"] = "superseded", ctx.tick
+        if parent == self.id:  # it took the lead from us (an extension we did not see completed)
+            self.child = src
+            self.known_role[src] = LL
+            self._drop_all_links(ctx, keep=())
+            self._set_role(ctx, RP)
+        else:  # our parent took the lead back (a retraction), or an unrelated leader
+            if src == self.parent:
                 self.conn.links.add(src)
-                self._set_role(ctx, EX)
-        else:
             self.parent = None
             self._set_role(ctx, EX)
+            self.last_info = ctx.tick
         self.epoch = epoch
         self.took_over = None
         self.ho = None
@@ -339,11 +374,13 @@ class RoleSwitching(Behavior, _Timed):
         if e > self.epoch and self.role != LL:
             self.epoch = e
         if self.role == LL and o != self.id:
-            self._heard_leader(ctx, o, e)
+            self._heard_leader(ctx, o, e, flood=True)
         cur = self.info
         if cur is None or (e, o) > (cur["e"], cur["o"]) or ((e, o) == (cur["e"], cur["o"]) and s > cur["s"]):
             self.info = {"e": e, "o": o, "s": s, "x": b["x"], "u": b["u"]}
             self.last_info = ctx.tick
+            if o != self.id:
+                self.known_role[o] = LL  # the newest leader (a former repeater, after a retraction)
         if self.role in LINKABLE:  # F3: forward to every linked robot but the sender, while not expired
             dsts = self.conn.links - {src}
             if dsts:
@@ -385,28 +422,32 @@ class RoleSwitching(Behavior, _Timed):
             self._refuse("not_requestable")
             ctx.send(src, NACK, reply | {"why": "not_requestable"})
             return True
-        if src not in self.conn.links and src not in (self.parent, self.child):
-            self._refuse("not_neighbour")
-            ctx.send(src, NACK, reply | {"why": "not_neighbour"})
-            return True
         e = b["e"]
         p = self.pending
         if (p is not None and p["from"] == src and p["epoch"] == e) or (
                 self.role == LL and self.epoch == e and self.took_over and self.took_over["from"] == src):
-            ctx.send(src, ACK, reply)  # a retry of what we accepted: acknowledge again
+            ctx.send(src, ACK, reply)  # a retry of what we accepted (links may have changed since): ACK again
+            return True
+        why = self.decided.get((src, e))
+        if why is not None:  # a retry of what we refused: the same answer, whatever changed since (H2)
+            ctx.send(src, NACK, reply | {"why": why})
+            return True
+        if src not in self.conn.links and src not in (self.parent, self.child):
+            self._refuse("not_neighbour", src, e)
+            ctx.send(src, NACK, reply | {"why": "not_neighbour"})
             return True
         if self.role == BS:
-            self._refuse("base_station")
+            self._refuse("base_station", src, e)
             ctx.send(src, NACK, reply | {"why": "base_station"})
             return True
         fits = (b["kind"] == EXTEND and self.role == EX) or (
             b["kind"] == RETRACT and self.role == RP and self.child == src)
         if not fits or p is not None:
-            self._refuse("role_conflict")
+            self._refuse("role_conflict", src, e)
             ctx.send(src, NACK, reply | {"why": "role_conflict"})
             return True
         if e <= self.epoch:
-            self._refuse("stale")
+            self._refuse("stale", src, e)
             ctx.send(src, NACK, reply | {"why": "stale"})
             return True
         goal = b.get("goal")
@@ -473,17 +514,23 @@ class RoleSwitching(Behavior, _Timed):
     def _on_where(self, ctx: Context, src: int, b: dict) -> bool:
         if not (isinstance(b, dict) and _int(b.get("c")) and b.get("cr") in ROLES and _vec(b.get("cx"))):
             return False
+        self.known_role[src] = b["r"] if b.get("r") in ROLES else self.known_role.get(src, RP)
+        self.known_role[b["c"]] = b["cr"]
         if self.role == EX and self.lost:
             h = self.head
-            # follow the reply that leads furthest down the chain: a child that leads beats a repeater
-            if h is None or b["cr"] == LL or h["role"] != LL:
+            # take the first answer; then only the answer of the child we were sent to (one step further down
+            # the chain: the temporary connection moves to it), or any answer that names the local leader
+            if h is None or b["cr"] == LL or (src == h["id"] and h["role"] != LL):
                 self.head = {"id": b["c"], "role": b["cr"], "pos": list(b["cx"]), "via": src}
+                if self.temp != src:
+                    self.temps.append([ctx.tick, src, b["c"], b["cr"]])
                 self.temp = src
         return True
 
     # ---------------------------------------------------------- tick
     def on_tick(self, ctx: Context, sensed) -> None:
-        t0 = self._clock_in()
+        t0 = self._clock_in() - self.frame_cpu  # this tick's frames count with its processing
+        self.frame_cpu = 0.0
         self.ticks += 1
         self.ticks_role[self.role] = self.ticks_role.get(self.role, 0) + 1
         ids = sensed.ids
@@ -512,7 +559,7 @@ class RoleSwitching(Behavior, _Timed):
         ctx.set_status(role=self.role, rc=ROLE_CODE[self.role], conn=sorted(self._links_all()),
                        parent=self.parent if self.role in (RP, LL) else None,
                        child=self.child if self.role in (RP, BS) else None,
-                       lost=self.lost, ep=self.epoch)
+                       lost=self.lost, temp=self.temp, ep=self.epoch)
         if self.role == BS:
             ctx.set_status(target=self.target_i, reached=len(self.reached))
         self._clock_out(t0, self.role)
@@ -521,7 +568,8 @@ class RoleSwitching(Behavior, _Timed):
         dsts = self._links_all()
         if dsts:
             self._send_to(ctx, STATE, {"r": self.role, "p": _r(x), "v": _r(self.vel), "u": _r(self.u),
-                                       "n": len(dsts), "e": self.epoch}, dsts)
+                                       "n": len(dsts), "e": self.epoch,
+                                       "pa": self.parent if self.role in (RP, LL) else None}, dsts)
 
     # ---------------------------------------------------------- Algorithm 1, made safe (rules H1-H6)
     def _handover_timers(self, ctx: Context) -> None:
@@ -538,7 +586,8 @@ class RoleSwitching(Behavior, _Timed):
         if ctx.tick > ho["T"] + self.lease:  # H4: lease expired without any answer - keep the lead
             ho["outcome"] = "timeout"
             ho["end"] = ctx.tick
-            self.epoch = ho["epoch"] + 1  # outrank a candidate that took over unheard (H5 steps it down)
+            self.issued = max(self.issued, ho["epoch"]) + 1
+            self.epoch = self.issued  # outrank a candidate that took over unheard (H5 steps it down)
             self.ho = None
             return
         self._send_request(ctx, ho)  # H2: retry every tick until acknowledged
@@ -549,7 +598,9 @@ class RoleSwitching(Behavior, _Timed):
                                      "goal": self.goal, "gk": self.goal_k})
 
     def _start_handover(self, ctx: Context, to: int, kind: str) -> None:
-        ho = {"to": to, "kind": kind, "epoch": self.epoch + 1, "t": ctx.tick, "T": ctx.tick + self.switch_delay,
+        # every request gets an epoch never used before, so that a refused or abandoned one cannot tie
+        self.issued = max(self.issued, self.epoch) + 1
+        ho = {"to": to, "kind": kind, "epoch": self.issued, "t": ctx.tick, "T": ctx.tick + self.switch_delay,
               "sent": 0, "acked": None, "evidence": None, "outcome": None, "end": None}
         self.ho = ho
         self.handovers.append(ho)
@@ -610,9 +661,13 @@ class RoleSwitching(Behavior, _Timed):
             for c in self.conn.links:
                 if ctx.tick - self.nacked.get(c, -10**9) < 20:
                     continue
+                xc = self._where(c)
+                lim = (self.eta_b + self.margin) * self.d_c
+                if xc is None or float(np.hypot(*(xc - x))) <= lim or float(np.hypot(*(xc - xp))) <= 2 * lim:
+                    continue  # H1': it would hand the lead straight back (we, its parent, too close, now or
+                    # once we stand at the midpoint of Eq. 1)
                 st = self.nbr.get(c)
                 n = st["n"] if st and st["r"] in LINKABLE else 0
-                xc = self._where(c)
                 dist_goal = float(np.hypot(*(xc - np.array(self.goal)))) if (self.goal and xc is not None) else 0.0
                 key = (-n, dist_goal, c)
                 if best is None or key < best[0]:
@@ -621,7 +676,8 @@ class RoleSwitching(Behavior, _Timed):
                 self._start_handover(ctx, best[1], EXTEND)
             else:
                 self.stall += 1
-        elif d < self.eta_b * self.d_c and self.parent != self.base:
+        elif (d < self.eta_b * self.d_c and self.parent != self.base
+              and ctx.tick - self.nacked.get(self.parent, -10**9) >= 20):
             self._start_handover(ctx, self.parent, RETRACT)
 
     # ---------------------------------------------------------- roles' ticks
@@ -643,7 +699,19 @@ class RoleSwitching(Behavior, _Timed):
             dp = xp - x
             n = float(np.hypot(*dp))
             u = k2 * (dp - self.eta_a * self.d_c * dp / n if n > 1e-9 else dp) + k3 * ((xp - x) + (xc - x))
-        self.u = cap(u, self.vmax)
+        self.u = cap(self._hold(u, x, xp), self.vmax)
+
+    def _hold(self, u: np.ndarray, x: np.ndarray, xp: np.ndarray | None) -> np.ndarray:
+        """H6 (ours): a local leader or repeater beyond hold * d_c from its parent heads back towards it."""
+        if xp is None:
+            return u
+        r = x - xp
+        d = float(np.hypot(*r))
+        if d <= self.hold * self.d_c:
+            return u
+        rh = r / d
+        out = float(u @ rh)
+        return u - (out + self.vmax) * rh if out > -self.vmax else u
 
     def _tick_leader(self, ctx: Context, x: np.ndarray) -> None:
         if self.ho is None and self.pending is None:
@@ -653,15 +721,7 @@ class RoleSwitching(Behavior, _Timed):
         self._algorithm2(ctx, x)
         k4 = self.k[4]
         u = k4 * (np.array(self.goal) - x) if self.goal is not None else np.zeros(2)  # Eq. 3
-        xp = self._where(self.parent)
-        if xp is not None:  # H6 (ours): never drive beyond hold * d_c from the parent
-            r = x - xp
-            d = float(np.hypot(*r))
-            if d > self.hold * self.d_c:
-                rh = r / d
-                out = float(u @ rh)
-                u = u - (out + 0.5 * self.vmax) * rh if out > -0.5 * self.vmax else u
-        self.u = cap(u, self.vmax)
+        self.u = cap(self._hold(u, x, self._where(self.parent)), self.vmax)
         # flood u_LL and x_LL to the explorers (message expiration, Sec. III-C)
         self.flood_seq += 1
         self.seen[(self.id, self.flood_seq)] = ctx.now + self.expiry
@@ -692,26 +752,32 @@ class RoleSwitching(Behavior, _Timed):
             self.u = self._recover(ctx, x)
             return
         _, _, _, _, _, k5, k6, k7, k8 = self.k
-        u = np.zeros(2)
+        x0, x1 = float(x[0]), float(x[1])
+        ux = uy = 0.0
         links = sorted(self.conn.links)
         if links:
-            um = np.zeros(2)
+            mx = my = 0.0
             for j in links:  # Eq. 5: velocity matching
                 st = self.nbr.get(j)
                 if st is not None:
-                    um += st["u"]
-            u += k5 / len(links) * um
+                    mx += st["u"][0]
+                    my += st["u"][1]
+            ux += k5 / len(links) * mx
+            uy += k5 / len(links) * my
             for j in links:  # Eq. 6: distance keeping
                 xj = self._where(j)
                 if xj is None:
                     continue
-                dj = xj - x
-                n = float(np.hypot(*dj))
+                dx, dy = float(xj[0]) - x0, float(xj[1]) - x1
+                n = math.hypot(dx, dy)
                 if n > 1e-9:
-                    u += k6 * (dj - self.d_n * dj / n)
+                    ux += k6 * (dx - self.d_n * dx / n)
+                    uy += k6 * (dy - self.d_n * dy / n)
         if self.info is not None:  # Eq. 7: follow the local leader
-            u += k7 * np.array(self.info["u"]) + k8 * (np.array(self.info["x"]) - x)
-        self.u = cap(u, self.vmax)  # Eq. 4
+            il, xl = self.info["u"], self.info["x"]
+            ux += k7 * il[0] + k8 * (xl[0] - x0)
+            uy += k7 * il[1] + k8 * (xl[1] - x1)
+        self.u = cap(np.array([ux, uy]), self.vmax)  # Eq. 4
 
     def _recover(self, ctx: Context, x: np.ndarray) -> np.ndarray:
         """Sec. III-D: head to the origin; ask repeaters / the base station where their child is; go there."""
@@ -737,8 +803,10 @@ class RoleSwitching(Behavior, _Timed):
     def _algorithm2(self, ctx: Context, x: np.ndarray) -> None:
         extra = sorted(self.repair)
         self.repair.clear()
+        ids, pos = self._participants()
+        chain = {r for r in (self.parent, self.child, self.base) if r is not None}
         added, removed, rejected = self.conn.refresh(
-            x, self._sensed_ids, self._sensed_pos, self._linkable, self.role_changed,
+            x, ids, pos, chain, self.role_changed,
             force_all=self.lost, extra=extra, fixed=1 if self.role == LL else 0)
         self.role_changed = False
         for j in added:
@@ -750,8 +818,6 @@ class RoleSwitching(Behavior, _Timed):
     # ---------------------------------------------------------- reports
     def report(self) -> dict:
         ticks = max(self.ticks, 1)
-        if self.lost and self.lost_episodes and self.lost_episodes[-1][1] is None:
-            pass
         return {
             "role": self.role,
             "roles": self.role_log,
@@ -775,6 +841,7 @@ class RoleSwitching(Behavior, _Timed):
             "stall_ticks": self.stall,
             "lost_episodes": self.lost_episodes,
             "helps": self.helps,
+            "temps": self.temps,
             "flood": self.flood_stats,
             "malformed": self.malformed,
             "targets": self.targets if self.role == BS else [],
@@ -808,7 +875,7 @@ class RoleSwitching(Behavior, _Timed):
             "handovers_done": sum(h["outcome"] == "done" for h in hos),
             "handovers_extend": sum(h["kind"] == EXTEND and h["outcome"] == "done" for h in hos),
             "handovers_retract": sum(h["kind"] == RETRACT and h["outcome"] == "done" for h in hos),
-            "handover_retries": sum(max(h["sent"] - 1, 0) for h in hos),
+            "handover_requests_sent": sum(h["sent"] for h in hos),
             "role_changes": sum(len(r["roles"]) - 1 for r in reps),
             "repeaters_final": sum(r["role"] == RP for r in reps),
             "lost_episodes": sum(len(r["lost_episodes"]) for r in reps),
@@ -840,10 +907,13 @@ _HANDLERS = {
 
 # ================================================================== the preliminary experiment's explorer
 class AATWalk(Behavior, _Timed):
-    """Sec. IV-A: explorers on a random walk (constant step, uniform direction) forming links by Algorithm 2
-    (``mode = "proposed"``, with CONNECT / DISCONNECT requests) or by the baseline that runs the acute angle
-    test on every detectable robot every tick (``mode = "baseline"``, symmetric, no messages needed).
-    The walk draws only from ``ctx.rng``, so both modes move the robots identically for one seed."""
+    """Sec. IV-A: explorers on a random walk forming links by Algorithm 2 or by the every-tick baseline.
+
+    Constant step, uniform direction; links by Algorithm 2 (``mode = "proposed"``, with CONNECT / DISCONNECT
+    requests) or by the baseline that runs the acute angle test on every detectable robot every tick
+    (``mode = "baseline"``, symmetric, no messages needed).
+    The walk draws only from ``ctx.rng``, so both modes move the robots identically for one seed.
+    """
 
     name = "aat"
     kinds = (CONNECT, DISCONNECT)
@@ -854,6 +924,7 @@ class AATWalk(Behavior, _Timed):
         self.mode, self.step, self.walk_until, self.timestep = mode, step, walk_until, timestep
         self.conn = Connections(mode, eta_c, float(d_c))
         self.first = True
+        self.frame_cpu = 0.0
         self.received = 0
         self.ticks = 0
         self.cpu = 0.0
@@ -878,12 +949,13 @@ class AATWalk(Behavior, _Timed):
             self.conn.links.discard(frame.src)
 
     def on_tick(self, ctx: Context, sensed) -> None:
-        t0 = self._clock_in()
+        t0 = self._clock_in() - self.frame_cpu  # this tick's frames count with its processing
+        self.frame_cpu = 0.0
         self.ticks += 1
         ids = sensed.ids
         pos = sensed.positions()[:, :2] if ids else np.zeros((0, 2))
         x = np.asarray(ctx.position[:2], dtype=float)
-        added, removed, _ = self.conn.refresh(x, ids, pos, lambda _j: True, self.first)
+        added, removed, _ = self.conn.refresh(x, ids, pos, (), self.first)
         self.first = False
         if self.mode == PROPOSED:  # the decision is no longer symmetric: tell the other side
             for j in added:

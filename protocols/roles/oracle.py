@@ -6,13 +6,15 @@ code never imports this module.
 Conventions
   * Roles, links (``conn``), parents and children at tick t are the robots' ``set_status`` fields after their
     step at tick t; positions are the trace's positions at tick t (the ones the robots sensed at t).
-  * Gabriel graph at tick t: over every alive robot (whatever its role: Algorithm 2's witness set R_k is every
-    robot within d_s), the Delaunay edges a-b with |ab| <= d_c whose closed diametral disk holds no third
-    robot, i.e. no k with (x_a - x_k) . (x_b - x_k) <= 0 - a robot exactly on the circle (a right angle)
-    breaks the edge, as the paper's test asks for acute angles. A closed-disk-empty edge is an edge of every
+  * Gabriel graph at tick t: over the robots whose role is local leader or explorer at t (the paper: "all
+    robots' roles are either local leaders or explorers in Algorithm 2"), the Delaunay edges a-b with
+    |ab| <= d_c whose closed diametral disk holds no third such robot, i.e. no k with
+    (x_a - x_k) . (x_b - x_k) <= 0: a robot exactly on the circle (a right angle) breaks the edge, as the
+    paper's test asks for acute angles. A closed-disk-empty edge is an edge of every
     Delaunay triangulation, so the Delaunay candidates lose nothing even with co-circular points.
-  * Formed network at tick t: the links (i, j) with j in conn_i or i in conn_j, kept only when the two are
-    within radio range of each other at t. A robot is connected when the formed network holds a path from it
+  * Formed network at tick t: the links (i, j) with j in conn_i or i in conn_j that the roles allow (both
+    local leader or explorer, or a chain link named by a parent / child pointer), kept only when the two
+    are within radio range of each other at t. A robot is connected when the formed network holds a path from it
     to the base station.
 """
 
@@ -34,25 +36,40 @@ LINKABLE = (LL, EX)
 
 # ------------------------------------------------------------------ geometry
 def gabriel_edges(ids: list[int], pos: np.ndarray, d_max: float = math.inf) -> set[tuple[int, int]]:
-    """Gabriel edges (a < b, as robot ids) no longer than ``d_max``, by Delaunay candidates."""
+    """Gabriel edges (a < b, as robot ids) no longer than ``d_max``, by Delaunay candidates.
+
+    Coincident robots (a wall can pile them up) follow the same test: two robots at one point form an edge
+    (no third robot is in their zero-radius disk) and every other edge of theirs is broken by the twin
+    (its angle is undefined: the dot product is 0); with three or more at one point, none.
+    """
     n = len(ids)
     if n < 2:
         return set()
     pos = np.asarray(pos, dtype=float)[:, :2]
+    uniq, first, inverse, counts = np.unique(pos, axis=0, return_index=True, return_inverse=True,
+                                             return_counts=True)
+    inverse = inverse.reshape(-1)
+    out = set()
+    for u in np.flatnonzero(counts == 2):
+        a, b = np.flatnonzero(inverse == u)
+        out.add((min(ids[a], ids[b]), max(ids[a], ids[b])))
+    m = len(uniq)
     cands: set[tuple[int, int]] = set()
-    if n == 2:
+    if m == 2:
         cands.add((0, 1))
-    else:
+    elif m > 2:
         try:
-            tri = Delaunay(pos)
+            tri = Delaunay(uniq)
             for s in tri.simplices:
                 a, b, c = (int(v) for v in s)
                 cands.update({(min(a, b), max(a, b)), (min(b, c), max(b, c)), (min(a, c), max(a, c))})
-        except (QhullError, ValueError):  # collinear or too few distinct points: test every pair
-            cands = {(a, b) for a in range(n) for b in range(a + 1, n)}
+        except (QhullError, ValueError):  # collinear points: test every pair
+            cands = {(a, b) for a in range(m) for b in range(a + 1, m)}
     tree = cKDTree(pos)
-    out = set()
-    for a, b in cands:
+    for ua, ub in cands:
+        if counts[ua] > 1 or counts[ub] > 1:
+            continue
+        a, b = int(first[ua]), int(first[ub])
         dx, dy = pos[b, 0] - pos[a, 0], pos[b, 1] - pos[a, 1]
         if dx * dx + dy * dy > d_max * d_max:
             continue
@@ -62,17 +79,17 @@ def gabriel_edges(ids: list[int], pos: np.ndarray, d_max: float = math.inf) -> s
         for k in tree.query_ball_point(mid, r * (1 + 1e-9) + 1e-12):
             if k == a or k == b:
                 continue
-            if (pos[a, 0] - pos[k, 0]) * (pos[b, 0] - pos[k, 0]) + (pos[a, 1] - pos[k, 1]) * (pos[b, 1] - pos[k, 1]) <= 0:
+            ax, ay = pos[a, 0] - pos[k, 0], pos[a, 1] - pos[k, 1]
+            if ax * (pos[b, 0] - pos[k, 0]) + ay * (pos[b, 1] - pos[k, 1]) <= 0:
                 ok = False
                 break
         if ok:
-            ia, ib = ids[a], ids[b]
-            out.add((min(ia, ib), max(ia, ib)))
+            out.add((min(ids[a], ids[b]), max(ids[a], ids[b])))
     return out
 
 
 def gabriel_brute(ids: list[int], pos: np.ndarray, d_max: float = math.inf) -> set[tuple[int, int]]:
-    """The same set by testing every pair against every robot (O(n^3)); for cross-checking."""
+    """Return the same set by testing every pair against every robot (O(n^3)); for cross-checking."""
     pos = np.asarray(pos, dtype=float)[:, :2]
     out = set()
     n = len(ids)
@@ -130,16 +147,26 @@ def timeline(result: Result) -> Iterator[tuple[int, dict[int, np.ndarray], dict[
 
 
 def formed_graph(pos: dict[int, np.ndarray], status: dict[int, dict], range_: float) -> nx.Graph:
-    """The links the robots hold (either side), where the two are within radio range."""
+    """Return the links the robots hold (either side) that their roles allow, within radio range.
+
+    Allowed: local leader / explorer pairs, and chain links named by a parent or child pointer.
+    """
     g = nx.Graph()
     g.add_nodes_from(pos)
     r2 = range_ * range_
     for i in pos:
-        for j in status.get(i, {}).get("conn") or []:
-            if j in pos and j != i:
-                d = pos[i] - pos[j]
-                if d[0] * d[0] + d[1] * d[1] <= r2:
-                    g.add_edge(i, j)
+        si = status.get(i, {})
+        for j in si.get("conn") or []:
+            if j not in pos or j == i:
+                continue
+            sj = status.get(j, {})
+            allowed = (si.get("role") in LINKABLE and sj.get("role") in LINKABLE) or j in (
+                si.get("parent"), si.get("child")) or i in (sj.get("parent"), sj.get("child"))
+            if not allowed:
+                continue
+            d = pos[i] - pos[j]
+            if d[0] * d[0] + d[1] * d[1] <= r2:
+                g.add_edge(i, j)
     return g
 
 
@@ -201,9 +228,12 @@ def chain_ok(pos: dict[int, np.ndarray], st: dict[int, dict], base: int, d_c: fl
 
 
 def chain(result: Result, settle: int = 0, physical: bool = True, name: str | None = None) -> Outcome:
-    """From ``settle`` on: the base station's child pointers lead through repeaters (whose parent pointers
-    agree) to the one local leader, every repeater is on that chain and, with ``physical``, every chain link
-    is within radio range."""
+    """Check the repeater chain from ``settle`` on.
+
+    The base station's child pointers lead through repeaters (whose parent pointers agree) to the one local
+    leader, every repeater is on that chain and, with ``physical``, every chain link
+    is within radio range.
+    """
     nm = _name(result, name)
     base = params(result, nm).get("base", 0)
     rng = _radio_range(result) if physical else None
@@ -220,51 +250,75 @@ def chain(result: Result, settle: int = 0, physical: bool = True, name: str | No
 
 
 def gabriel(result: Result, grace: int = 2, min_formed: float = 0.0, exact: bool = False,
-            name: str | None = None) -> list[Outcome]:
-    """Links among the local leader and explorers (the ones Algorithm 2 governs):
+            cross_grace: int | None = None, name: str | None = None) -> list[Outcome]:
+    """Check the links among the local leader and explorers (the ones Algorithm 2 governs).
 
-    * ``roles.gabriel``: every link a robot holds at tick t is an edge of the Gabriel graph at some tick in
-      [t - grace, t] (a CONNECT / DISCONNECT takes ``latency`` ticks to reach the other side);
+    * ``roles.gabriel``: every link a robot holds at tick t is an edge of the Gabriel graph of the positions
+      at some tick t' in [t - grace, t] over the robots that are local leader or explorer at some tick t''
+      with |t'' - t'| <= grace (a CONNECT / DISCONNECT takes ``latency`` ticks to reach the other side, and
+      so does the news of a role change, which the two robots of a hand-over apply a little before or after
+      the others hear of it);
     * ``roles.cross_links``: no explorer keeps a link with a repeater or the base station for more than
-      ``grace`` ticks;
+      ``cross_grace`` ticks (default ``grace``);
     * ``roles.gabriel_formed``: at the last tick, the fraction of Gabriel edges between local-leader /
       explorer robots that are formed on both sides is at least ``min_formed``;
     * with ``exact``, ``roles.gabriel_exact``: the links equal the Gabriel graph at every tick (the baseline).
     """
     nm = _name(result, name)
-    d_c = float(params(result, nm)["d_c"])
-    history: list[set[tuple[int, int]]] = []
+    par = params(result, nm)
+    d_c = min(float(par["d_c"]), float(par.get("d_s") or par["d_c"]))  # links are at most d_s long
+    cross_grace = grace if cross_grace is None else cross_grace
+    views: list[tuple[int, dict, dict, dict]] = []  # (t, pos, role, {i: (conn, parent)})
+    for t, pos, st in timeline(result):
+        role = {r: st.get(r, {}).get("role") for r in pos}
+        views.append((t, pos, role, {r: (st.get(r, {}).get("conn") or [], st.get(r, {}).get("parent")) for r in pos}))
+    cache: dict[tuple[int, int], set] = {}
+
+    def gab(a: int, b: int) -> set:
+        if (a, b) not in cache:
+            pos, role = views[a][1], views[b][2]
+            cache[(a, b)] = _gabriel_at({r: p for r, p in pos.items() if role.get(r) in LINKABLE}, d_c)
+        return cache[(a, b)]
+
+    def acceptable(e: tuple[int, int], k: int) -> bool:
+        for a in range(k, max(k - grace, 0) - 1, -1):
+            for b in range(max(a - grace, 0), min(a + grace, len(views) - 1) + 1):
+                if e in gab(a, b):
+                    return True
+        return False
+
     bad: list[tuple] = []
     cross: dict[tuple[int, int], int] = {}
     cross_bad: list[tuple] = []
     not_exact: list[int] = []
-    last = None
     fractions = []
-    for t, pos, st in timeline(result):
-        gab = _gabriel_at(pos, d_c)
-        history.append(gab)
-        recent = history[-(grace + 1):]
-        role = {r: st.get(r, {}).get("role") for r in pos}
+    lg = mutual = set()
+    t = None
+    for k, (t, pos, role, links) in enumerate(views):
+        for old in [key for key in cache if key[0] < k - 2 * grace - 1]:
+            del cache[old]
+        now = gab(k, k)
         held = set()
         now_cross = {}
         for i in pos:
             if role[i] not in LINKABLE:
                 continue
-            for j in st.get(i, {}).get("conn") or []:
-                if j not in pos:
-                    continue
+            conn, parent = links[i]
+            for j in conn:
+                if j not in pos or (role[i] == LL and j == parent):
+                    continue  # the local leader's parent is a chain link, not an Algorithm 2 link
                 e = (min(i, j), max(i, j))
                 if role[j] in LINKABLE:
                     held.add((i, j))
-                    if not any(e in g for g in recent):
+                    if e not in now and not acceptable(e, k):
                         bad.append((t, i, j))
                 else:
                     since = cross.get((i, j), t)
                     now_cross[(i, j)] = since
-                    if t - since > grace:
+                    if t - since > cross_grace:
                         cross_bad.append((t, i, j))
         cross = now_cross
-        lg = {e for e in gab if role.get(e[0]) in LINKABLE and role.get(e[1]) in LINKABLE}
+        lg = now
         mutual = {(min(i, j), max(i, j)) for i, j in held if (j, i) in held}
         if lg:
             fractions.append(len(lg & mutual) / len(lg))
@@ -272,8 +326,6 @@ def gabriel(result: Result, grace: int = 2, min_formed: float = 0.0, exact: bool
             one_sided = {(min(i, j), max(i, j)) for i, j in held}
             if one_sided != lg or mutual != lg:
                 not_exact.append(t)
-        last = (t, lg, mutual)
-    t_end, lg, mutual = last
     frac = len(lg & mutual) / len(lg) if lg else 1.0
     mean = float(np.mean(fractions)) if fractions else 1.0
     out = [
@@ -282,10 +334,10 @@ def gabriel(result: Result, grace: int = 2, min_formed: float = 0.0, exact: bool
                 f"every local-leader/explorer link is a Gabriel edge (grace {grace} ticks)",
                 first_tick=bad[0][0] if bad else None),
         Outcome("roles.cross_links", not cross_bad, value=len(cross_bad), bound=0,
-                detail=f"explorer links to repeaters/base station beyond {grace} ticks: {cross_bad[:8]}" if cross_bad
-                else "none", first_tick=cross_bad[0][0] if cross_bad else None),
+                detail=f"explorer links to repeaters/base station beyond {cross_grace} ticks: {cross_bad[:8]}"
+                if cross_bad else "none", first_tick=cross_bad[0][0] if cross_bad else None),
         Outcome("roles.gabriel_formed", frac >= min_formed, value=round(frac, 4), bound=min_formed,
-                detail=f"{len(lg & mutual)} of {len(lg)} Gabriel edges formed at tick {t_end}; "
+                detail=f"{len(lg & mutual)} of {len(lg)} Gabriel edges formed at tick {t}; "
                        f"mean over the run {mean:.3f}"),
     ]
     if exact:
@@ -296,8 +348,11 @@ def gabriel(result: Result, grace: int = 2, min_formed: float = 0.0, exact: bool
 
 
 def disconnection_episodes(result: Result, name: str | None = None) -> dict:
-    """Per robot, the intervals [start, end) during which the formed network held no path to the base station
-    (end None: still disconnected at the last tick), and per tick the number of disconnected robots."""
+    """Return the disconnections from the base station, by the oracle.
+
+    Per robot, the intervals [start, end) during which the formed network held no path to the base station
+    (end None: still disconnected at the last tick), and per tick the number of disconnected robots.
+    """
     nm = _name(result, name)
     base = params(result, nm).get("base", 0)
     rng = _radio_range(result)
@@ -323,8 +378,10 @@ def disconnection_episodes(result: Result, name: str | None = None) -> dict:
 
 def disconnections(result: Result, max_recovery: int | None = None, settle: int = 0,
                    name: str | None = None) -> Outcome:
-    """Disconnections from the base station (per robot, by the oracle): every one recovered within
-    ``max_recovery`` ticks (one still open at the end counts when it is already longer)."""
+    """Check the disconnections from the base station (per robot, by the oracle).
+
+    Every one is recovered within ``max_recovery`` ticks (one still open at the end counts when it is already longer).
+    """
     info = disconnection_episodes(result, name)
     eps = [e for e in info["episodes"] if e[1] >= settle]
     last = info["last"]
@@ -341,7 +398,7 @@ def disconnections(result: Result, max_recovery: int | None = None, settle: int 
 
 
 def targets(result: Result, min_targets: int = 0, name: str | None = None) -> Outcome:
-    """The base station saw at least ``min_targets`` targets reached (arrival reported up the chain)."""
+    """Check that the base station saw at least ``min_targets`` targets reached (reported up the chain)."""
     nm = _name(result, name)
     reached = sum(len(r.get("reached", [])) for r in result.reports(nm).values())
     return Outcome("roles.targets", reached >= min_targets, value=reached, bound=min_targets)
@@ -349,8 +406,10 @@ def targets(result: Result, min_targets: int = 0, name: str | None = None) -> Ou
 
 def connectivity(result: Result, every: int = 10, min_lambda2: float = 0.0, nodes: str = "all",
                  name: str | None = None) -> Outcome:
-    """Mean algebraic connectivity of the formed network (sampled every ``every`` ticks); ``nodes`` = "all"
-    or "linkable" (local leader and explorers only)."""
+    """Report the mean algebraic connectivity of the formed network, sampled every ``every`` ticks.
+
+    ``nodes`` = "all" or "linkable" (local leader and explorers only).
+    """
     rng = _radio_range(result)
     vals = []
     for t, pos, st in timeline(result):
@@ -370,8 +429,11 @@ def ll_counts(result: Result) -> dict[int, int]:
 
 
 def handover_gaps(result: Result, window: int = 60, name: str | None = None) -> list[dict]:
-    """For each hand-over request (from the requesters' reports): the ticks from the request until the next
-    request (at most ``window``) on which there was not exactly one local leader."""
+    """Return each hand-over request (from the requesters' reports) with its gap.
+
+    The gap: the ticks from the request until the next request (at most ``window``) on which there was not
+    exactly one local leader.
+    """
     nm = _name(result, name)
     counts = ll_counts(result)
     hos = sorted(({"robot": rid, **h} for rid, r in result.reports(nm).items() for h in r.get("handovers", [])),
@@ -386,8 +448,11 @@ def handover_gaps(result: Result, window: int = 60, name: str | None = None) -> 
 
 def handover(result: Result, H: int = 3, quantile: float = 0.99, window: int = 60,
              name: str | None = None) -> list[Outcome]:
-    """Hand-overs under loss: at least ``quantile`` of them have at most ``H`` ticks without exactly one local
-    leader; and no tick outside a hand-over's window lacks exactly one local leader."""
+    """Check hand-overs under loss.
+
+    At least ``quantile`` of them have at most ``H`` ticks without exactly one local leader, and no tick
+    outside a hand-over's window lacks exactly one local leader.
+    """
     gaps = handover_gaps(result, window, name)
     within = sum(g["gap"] <= H for g in gaps)
     frac = within / len(gaps) if gaps else 1.0

@@ -1,0 +1,184 @@
+"""The ``view``, ``replay`` and ``sweep`` commands, and the ``--view`` and chart parts of ``run``/``world``.
+
+Kept apart from ``cli.py`` so that the command line imports aiohttp and
+matplotlib only for the commands that need them. Exit codes as for ``run``:
+0 done, 2 bad input (a bad option, scenario or trace file), 3 the command could
+not do its work (no such run, world unreachable, port taken), 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import sys
+from pathlib import Path
+
+from rich.console import Console
+
+EXIT_OK, EXIT_INPUT, EXIT_RUNTIME, EXIT_INTERRUPTED = 0, 2, 3, 130
+
+
+def _say(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
+
+
+def command(args, err: Console) -> int:
+    from swarmactors.scenario import ScenarioError
+    from swarmactors.trace import TraceError
+    from swarmactors.viewer import ViewerError, warn_if_exposed
+
+    try:
+        if args.command == "sweep":
+            return _sweep(args, err)
+        if getattr(args, "view_host", None):
+            warn_if_exposed(args.view_host)
+        if args.command == "view":
+            return _view(args)
+        return _replay(args, err)
+    except (TraceError, ScenarioError, ValueError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    except ViewerError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_RUNTIME
+    except KeyboardInterrupt:
+        return EXIT_INTERRUPTED
+
+
+# ---------------------------------------------------------------- view
+def _view(args) -> int:
+    from swarmactors.viewer import serve_remote
+
+    asyncio.run(serve_remote(args.connect, args.run_id, args.view_host, args.view_port, announce=_say))
+    return EXIT_OK
+
+
+class _Session:
+    """``run/world --view``: wraps viewer.ViewSession; no lingering after an interrupted run."""
+
+    def __init__(self, args):
+        from swarmactors.viewer import ViewSession, warn_if_exposed
+
+        warn_if_exposed(args.view_host)
+        self.inner = ViewSession(args.view_host, args.view_port, announce=_say)
+        self.result = None
+
+    def run(self, sc, out_dir, endpoints, run_id, processes, local_host, on_tick):
+        self.result = self.inner.run(sc, out_dir, endpoints, run_id, processes, local_host, on_tick)
+        return self.result
+
+    def linger(self) -> None:
+        if self.result is not None and self.result["interrupted"]:
+            self.inner.loop.run_until_complete(self.inner.server.close())
+            self.inner.loop.close()
+            return
+        self.inner.linger()
+
+
+def view_session(args) -> _Session:
+    return _Session(args)
+
+
+# ---------------------------------------------------------------- charts
+def write_run_charts(result, out_dir: Path, field: str | None, err: Console) -> list[Path]:
+    """The per-run charts (swarmactors.charts); a failure is reported, never fatal."""
+    try:
+        from swarmactors.charts import write_charts
+
+        return write_charts(result, out_dir, field)
+    except Exception as exc:
+        err.print(f"[yellow]charts skipped:[/] {exc.__class__.__name__}: {exc}")
+        return []
+
+
+# ---------------------------------------------------------------- replay
+def _trace_path(path: Path) -> Path:
+    if path.is_dir():
+        path = path / "trace.msgpack"
+    if not path.exists():
+        raise ValueError(f"{path}: no such trace file")
+    return path
+
+
+def _replay(args, err: Console) -> int:
+    from swarmactors.replay import Replay, render
+
+    trace = _trace_path(args.trace)
+    if args.events:
+        from swarmactors.scene import events_toml
+
+        replay = Replay(trace)
+        print(events_toml(replay.full_scene().control_events(), replay.header.get("run_id", "")), end="")
+        return EXIT_OK
+    out = args.gif or args.mp4
+    if out is not None:
+        if args.gif is not None and out.suffix.lower() != ".gif":
+            raise ValueError(f"--gif {out}: the file name must end in .gif")
+        if args.mp4 is not None and out.suffix.lower() != ".mp4":
+            raise ValueError(f"--mp4 {out}: the file name must end in .mp4")
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+        with Progress(TextColumn(f"[bold]rendering {out.name}"), BarColumn(), MofNCompleteColumn(),
+                      TimeElapsedColumn(), console=err, disable=args.quiet) as bar:
+            task = bar.add_task("", total=None)
+            frames = render(trace, out, every=args.every, fps=args.fps, field=args.field,
+                            progress=lambda i, n: bar.update(task, completed=i, total=n))
+        if not args.quiet:
+            _say(f"wrote {out} ({frames} frames)")
+        return EXIT_OK
+    from swarmactors.viewer import serve_replay
+
+    Replay(trace)  # read it now: a bad file is an error before the server starts
+    asyncio.run(serve_replay(trace, args.view_host, args.view_port, announce=_say))
+    return EXIT_OK
+
+
+# ---------------------------------------------------------------- sweep
+def _sweep(args, err: Console) -> int:
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    from swarmactors import sweep as sw
+
+    overrides = list(args.set)
+    if args.seed is not None:
+        overrides.append(f"run.seed={args.seed}")
+    if args.clock is not None:
+        overrides.append(f'run.clock="{args.clock}"')
+    plan = sw.prepare(args.scenario, overrides, args.grid, args.trials, args.out)
+    with Progress(TextColumn(f"[bold]{plan.name} sweep"), BarColumn(), MofNCompleteColumn(),
+                  TextColumn("{task.fields[note]}"), TimeElapsedColumn(), TimeRemainingColumn(),
+                  console=err, disable=args.quiet or args.json) as bar:
+        task = bar.add_task("", total=None, note="")
+
+        def progress(done: int, total: int, counts: dict) -> None:
+            note = ", ".join(f"{v} {k}" for k, v in (("check failures", counts["failed"]),
+                                                       ("errors", counts["errors"])) if v)
+            bar.update(task, completed=done, total=total, note=note)
+
+        outcome = sw.run_sweep(plan, workers=args.workers, keep=args.keep, progress=progress)
+    if args.json:
+        print(json.dumps(outcome.as_dict()))
+    elif not args.quiet:
+        from rich.table import Table
+
+        t = Table(title=f"sweep of {plan.scenario}", show_header=False)
+        t.add_column(style="bold")
+        t.add_column()
+        t.add_row("trials", f"{outcome.total} ({outcome.skipped} already done, {outcome.ran} run now)")
+        t.add_row("grid", "; ".join(f"{k} = {', '.join(map(sw.cell, v))}" for k, v in plan.grid) or "none")
+        t.add_row("check failures", str(outcome.failed))
+        t.add_row("errors", str(outcome.errors))
+        t.add_row("csv", str(outcome.csv))
+        for p in outcome.plots:
+            t.add_row("plot", str(p))
+        if outcome.interrupted:
+            t.add_row("interrupted", "run the same command again to finish the sweep")
+        err.print(t)
+    return EXIT_INTERRUPTED if outcome.interrupted else EXIT_OK

@@ -1,0 +1,502 @@
+"""Parameter sweeps: a grid of overrides × repeated trials over worker processes, one CSV row per trial.
+
+``swarmactors sweep SCENARIO --grid radio.loss=0,0.1,0.2 --grid robots.0.count=20,40 --trials 5``
+runs every combination of the grid's values (a *point*) ``trials`` times. The
+trial with index i of every point runs with seed ``trial_seed(base, i)``, base
+being the scenario's ``run.seed`` (after ``--seed``/``--set``), so every point
+sees the same placements and loss draws (common random numbers), and the
+sweep's rows are a function of its inputs alone.
+
+Output (``--out DIR``, default ``out/<run.name>-sweep``):
+
+* ``trials.csv`` - one row per finished trial (columns in ``COLUMNS`` order,
+  then ``metric.<behaviour>.<name>`` and ``check.<name>`` columns, sorted);
+  no wall-clock value, so a re-run gives the same bytes;
+* ``sweep.json`` - what identifies the sweep (scenario digest, overrides, grid
+  keys), checked when the sweep is resumed;
+* ``trials/<point>/t<i>/`` - each trial's result.json and trace (kept for
+  failed trials only unless ``--keep all``);
+* ``summary-<key>.png`` - each metric against each grid key, mean ± standard
+  deviation over the trials, every trial as a dot.
+
+Resuming: a sweep started again with the same scenario, overrides and grid
+keys skips the trials already in ``trials.csv`` (more values or more trials
+just add rows). A trial cut short by Ctrl-C leaves no row. Trials run in
+processes started with the ``spawn`` method (Zenoh's runtime does not survive
+``fork``), ``--workers`` at a time.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import csv
+import hashlib
+import io
+import itertools
+import json
+import math
+import multiprocessing
+import os
+import queue
+import re
+import shutil
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from swarmactors.result import to_jsonable
+from swarmactors.scene import DROP_CAUSES, toml_value
+
+COLUMNS_AFTER_GRID = ["trial", "seed", "ticks", "trace_hash", "stop_reason", "robots", "alive", "frames_sent",
+                      "deliveries", *[f"dropped.{c}" for c in DROP_CAUSES], "dropped_total", "passed", "error"]
+SWEEP_VERSION = 1
+
+
+class SweepError(ValueError):
+    """A sweep that cannot start (bad --grid, an output directory holding another sweep, …)."""
+
+
+@dataclass(frozen=True)
+class Trial:
+    point: int  # index of the grid point
+    values: tuple  # the grid values of this point, in --grid order
+    trial: int
+    seed: int
+
+    def key(self, keys: list[str]) -> tuple[str, ...]:
+        return (*[cell(v) for v in self.values], str(self.trial))
+
+
+@dataclass
+class Sweep:
+    scenario: Path
+    overrides: list[str]
+    grid: list[tuple[str, list]]  # (key, values) in --grid order
+    trials: int
+    out: Path
+    base_seed: int
+    name: str
+    identity: dict = field(default_factory=dict)
+
+    @property
+    def keys(self) -> list[str]:
+        return [k for k, _ in self.grid]
+
+    @property
+    def csv_path(self) -> Path:
+        return self.out / "trials.csv"
+
+    def all_trials(self) -> list[Trial]:
+        points = list(itertools.product(*[vals for _, vals in self.grid])) if self.grid else [()]
+        return [Trial(p, tuple(vals), i, trial_seed(self.base_seed, i))
+                for p, vals in enumerate(points) for i in range(self.trials)]
+
+    def trial_dir(self, t: Trial) -> Path:
+        return self.out / "trials" / point_slug(self.keys, t.values) / f"t{t.trial}"
+
+    def trial_overrides(self, t: Trial) -> list[str]:
+        return [*self.overrides, *[f"{k}={toml_value(v)}" for k, v in zip(self.keys, t.values)],
+                f"run.seed={t.seed}"]
+
+
+# ---------------------------------------------------------------- set-up
+def parse_grid(item: str) -> tuple[str, list]:
+    """``key=v1,v2,…`` (TOML values; bare words are strings) -> (key, [values])."""
+    key, sep, text = item.partition("=")
+    key = key.strip()
+    if not sep or not key or not text.strip():
+        raise SweepError(f"--grid {item!r}: expected SECTION.KEY=V1,V2,...")
+    try:
+        values = tomllib.loads(f"v = [{text}]")["v"]
+    except tomllib.TOMLDecodeError:
+        values = []
+        for part in text.split(","):
+            part = part.strip()
+            try:
+                values.append(tomllib.loads(f"v = {part}")["v"])
+            except tomllib.TOMLDecodeError:
+                values.append(part)
+    if not values:
+        raise SweepError(f"--grid {item!r}: no values")
+    if len({cell(v) for v in values}) != len(values):
+        raise SweepError(f"--grid {item!r}: a value is repeated")
+    return key, values
+
+
+def trial_seed(base: int, trial: int) -> int:
+    """The seed of trial ``trial``: a fixed function of the base seed and the index (31 bits)."""
+    digest = hashlib.blake2b(f"swarmactors-sweep/{base}/{trial}".encode(), digest_size=8).digest()
+    return int.from_bytes(digest, "big") & 0x7FFF_FFFF
+
+
+def point_slug(keys: list[str], values: tuple) -> str:
+    if not keys:
+        return "base"
+    text = ",".join(f"{k}={cell(v)}" for k, v in zip(keys, values))
+    return re.sub(r"[^A-Za-z0-9_.=,+-]", "_", text)[:150]
+
+
+def prepare(scenario: str | Path, overrides: list[str], grid_items: list[str], trials: int,
+            out: Path | None) -> Sweep:
+    """Validate everything (every grid point resolves) before any trial starts."""
+    from swarmactors.scenario import load
+
+    if trials < 1:
+        raise SweepError(f"--trials {trials}: must be >= 1")
+    grid = [parse_grid(item) for item in grid_items]
+    keys = [k for k, _ in grid]
+    if len(set(keys)) != len(keys):
+        raise SweepError("--grid: a key is given twice")
+    base = load(scenario, overrides)  # ScenarioError names the file and the key
+    for key, values in grid:
+        for v in values:
+            load(scenario, [*overrides, f"{key}={toml_value(v)}"])
+    digest_src = {k: v for k, v in to_jsonable(base).items() if k != "source"}
+    identity = {
+        "version": SWEEP_VERSION,
+        "scenario": str(scenario),
+        "scenario_digest": hashlib.blake2b(json.dumps(digest_src, sort_keys=True).encode(),
+                                           digest_size=16).hexdigest(),
+        "overrides": list(overrides),
+        "grid_keys": keys,
+    }
+    name = base["run"]["name"]
+    return Sweep(Path(scenario), list(overrides), grid, trials, out or Path("out") / f"{name}-sweep",
+                 base["run"]["seed"], name, identity)
+
+
+# ---------------------------------------------------------------- one trial
+def run_trial(sweep_args: dict, t: Trial) -> dict:
+    """Run one trial (in a worker process); return its CSV row (cells as strings), or None if interrupted."""
+    from swarmactors.launcher import run_world
+    from swarmactors.scenario import load
+    from transport import Endpoints
+
+    sw: Sweep = sweep_args["sweep"]
+    out_dir = sw.trial_dir(t)
+    row = {k: cell(v) for k, v in zip(sw.keys, t.values)}
+    row.update(trial=str(t.trial), seed=str(t.seed))
+    if out_dir.exists():
+        shutil.rmtree(out_dir)  # a trial cut short before: start it afresh
+    try:
+        sc = load(sw.scenario, sw.trial_overrides(t))
+        run_id = f"sweep-{hashlib.blake2b(repr((sw.identity, t.key(sw.keys))).encode(), digest_size=6).hexdigest()}"
+        result = asyncio.run(run_world(sc, out_dir, Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"]), run_id,
+                                       processes=sc["run"]["processes"]))
+    except Exception as exc:  # the row says why; the sweep goes on
+        row["error"] = f"{exc.__class__.__name__}: {exc}"
+        return row
+    if result["interrupted"]:
+        return None
+    data = result.data
+    w = data["world"]
+    row.update(
+        ticks=cell(data["ticks"]), trace_hash=data["trace_hash"], stop_reason=cell(data["stop_reason"]),
+        robots=cell(len(data["robots"])), alive=cell(sum(1 for r in data["robots"].values() if r["alive"])),
+        frames_sent=cell(w["frames_sent"]), deliveries=cell(w["deliveries"]),
+        dropped_total=cell(w["dropped_total"]),
+        passed=cell(all(c["passed"] for c in data["checks"])) if data["checks"] else "",
+        error="",
+    )
+    for c in DROP_CAUSES:
+        row[f"dropped.{c}"] = cell(w["dropped"].get(c, 0))
+    for beh, metrics in sorted(data["metrics"].items()):
+        for k, v in _flatten(metrics):
+            row[f"metric.{beh}.{k}"] = cell(v)
+    for c in data["checks"]:
+        row[f"check.{c['name']}"] = "pass" if c["passed"] else "fail"
+        row[f"check.{c['name']}.value"] = cell(c["value"])
+    keep = sweep_args["keep"]
+    failed = row["passed"] == "false"
+    if keep == "none" or (keep == "failed" and not failed):
+        shutil.rmtree(out_dir, ignore_errors=True)
+    return row
+
+
+def _flatten(d: dict, prefix: str = ""):
+    for k, v in sorted(d.items(), key=lambda kv: str(kv[0])):
+        name = f"{prefix}{k}"
+        if isinstance(v, dict) and v and all(not isinstance(x, (dict, list)) for x in v.values()):
+            yield from _flatten(v, name + ".")
+        else:
+            yield name, v
+
+
+def cell(v) -> str:
+    """A CSV cell: the same value always gives the same text."""
+    if v is None:
+        return ""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return repr(v) if math.isfinite(v) else ""
+    if isinstance(v, str):
+        return v
+    return json.dumps(to_jsonable(v), sort_keys=True, separators=(",", ":"))
+
+
+def _worker(sweep_args: dict, tasks, results) -> None:
+    """A worker process: run trials until told to stop."""
+    import logging
+
+    logging.basicConfig(level=logging.ERROR)
+    os.environ.setdefault("PYTHONHASHSEED", "0")
+    while True:
+        t = tasks.get()
+        if t is None:
+            return
+        results.put((t, run_trial(sweep_args, t)))
+
+
+# ---------------------------------------------------------------- the CSV
+class Table:
+    """trials.csv: rows kept in memory, appended as they come, rewritten in trial order at the end."""
+
+    def __init__(self, sweep: Sweep):
+        self.sweep = sweep
+        self.path = sweep.csv_path
+        self.rows: dict[tuple, dict] = {}
+        self.header: list[str] = []
+        self.order = {t.key(sweep.keys): i for i, t in enumerate(sweep.all_trials())}
+
+    def load(self) -> int:
+        """Read the rows already done; return how many. A torn last line (a killed sweep) is dropped."""
+        if not self.path.exists():
+            return 0
+        text = self.path.read_text()
+        reader = csv.reader(io.StringIO(text))
+        try:
+            header = next(reader)
+        except StopIteration:
+            return 0
+        missing = [c for c in [*self.sweep.keys, "trial"] if c not in header]
+        if missing:
+            raise SweepError(f"{self.path}: no column {missing[0]!r}: this file belongs to another sweep")
+        complete_lines = text.endswith("\n")
+        rows = list(reader)
+        for i, cells in enumerate(rows):
+            if len(cells) != len(header) or (i == len(rows) - 1 and not complete_lines):
+                continue
+            row = dict(zip(header, cells))
+            self.rows[tuple(row[k] for k in [*self.sweep.keys, "trial"])] = row
+        self.header = header
+        self._rewrite()  # drop a torn line now, so appends start on a clean line
+        return len(self.rows)
+
+    def done(self, t: Trial) -> bool:
+        return t.key(self.sweep.keys) in self.rows
+
+    def add(self, t: Trial, row: dict) -> None:
+        self.rows[t.key(self.sweep.keys)] = row
+        header = self._header_for(self.rows.values())
+        if header != self.header or not self.path.exists():
+            self.header = header
+            self._rewrite()
+        else:
+            with open(self.path, "a", newline="") as f:
+                csv.writer(f, lineterminator="\n").writerow([row.get(c, "") for c in self.header])
+
+    def finish(self) -> None:
+        self.header = self._header_for(self.rows.values())
+        self._rewrite()
+
+    def _header_for(self, rows) -> list[str]:
+        extra = sorted({k for r in rows for k in r} - set(self.sweep.keys) - set(COLUMNS_AFTER_GRID))
+        metrics = [k for k in extra if k.startswith("metric.")]
+        checks = [k for k in extra if k.startswith("check.")]
+        others = [k for k in extra if k not in metrics and k not in checks]
+        return [*self.sweep.keys, *COLUMNS_AFTER_GRID, *metrics, *checks, *others]
+
+    def _rewrite(self) -> None:
+        def position(item):
+            key, _ = item
+            return (self.order.get(key, len(self.order)), key)
+
+        tmp = self.path.with_suffix(".csv.tmp")
+        with open(tmp, "w", newline="") as f:
+            w = csv.writer(f, lineterminator="\n")
+            w.writerow(self.header)
+            for _, row in sorted(self.rows.items(), key=position):
+                w.writerow([row.get(c, "") for c in self.header])
+        tmp.replace(self.path)
+
+
+# ---------------------------------------------------------------- running
+@dataclass
+class Outcome:
+    total: int
+    skipped: int
+    ran: int
+    errors: int
+    failed: int
+    interrupted: bool
+    csv: Path
+    plots: list[Path]
+
+    def as_dict(self) -> dict:
+        return {"csv": str(self.csv), "trials": self.total, "skipped": self.skipped, "ran": self.ran,
+                "errors": self.errors, "failed_checks": self.failed, "interrupted": self.interrupted,
+                "plots": [str(p) for p in self.plots]}
+
+
+def run_sweep(sw: Sweep, workers: int = 1, keep: str = "failed",
+              progress: Callable[[int, int, dict], None] | None = None) -> Outcome:
+    """Run the trials not yet in the CSV; Ctrl-C stops the workers and keeps the finished rows."""
+    if workers < 1:
+        raise SweepError(f"--workers {workers}: must be >= 1")
+    if keep not in ("all", "failed", "none"):
+        raise SweepError(f"--keep {keep!r}: one of all, failed, none")
+    sw.out.mkdir(parents=True, exist_ok=True)
+    ident_path = sw.out / "sweep.json"
+    if ident_path.exists():
+        try:
+            before = json.loads(ident_path.read_text())
+        except ValueError:
+            before = None
+        if before != sw.identity:
+            raise SweepError(f"{sw.out} holds another sweep (other scenario, --set or --grid keys): "
+                             f"give another --out, or delete {sw.out}")
+    else:
+        ident_path.write_text(json.dumps(sw.identity, indent=1) + "\n")
+    table = Table(sw)
+    table.load()
+    trials = sw.all_trials()
+    pending = [t for t in trials if not table.done(t)]
+    skipped = len(trials) - len(pending)
+    counts = {"errors": 0, "failed": 0}
+    done = skipped
+    if progress:
+        progress(done, len(trials), counts)
+    interrupted = False
+    args = {"sweep": sw, "keep": keep}
+    if pending:
+        ctx = multiprocessing.get_context("spawn")
+        tasks, results = ctx.Queue(), ctx.Queue()
+        for t in pending:
+            tasks.put(t)
+        n = min(workers, len(pending))
+        for _ in range(n):
+            tasks.put(None)
+        previous = os.environ.get("PYTHONHASHSEED")
+        os.environ["PYTHONHASHSEED"] = "0"
+        try:
+            procs = [ctx.Process(target=_worker, args=(args, tasks, results), name=f"sweep-worker-{i}")
+                     for i in range(n)]
+            for p in procs:
+                p.start()
+        finally:
+            if previous is None:
+                os.environ.pop("PYTHONHASHSEED", None)
+            else:
+                os.environ["PYTHONHASHSEED"] = previous
+        remaining = len(pending)
+        try:
+            while remaining:
+                try:
+                    t, row = results.get(timeout=0.5)
+                except queue.Empty:
+                    if not any(p.is_alive() for p in procs):
+                        raise RuntimeError("every sweep worker exited before the sweep was done") from None
+                    continue
+                remaining -= 1
+                if row is None:  # the trial was interrupted: no row
+                    interrupted = True
+                    continue
+                table.add(t, row)
+                counts["errors"] += bool(row.get("error"))
+                counts["failed"] += row.get("passed") == "false"
+                done += 1
+                if progress:
+                    progress(done, len(trials), counts)
+        except KeyboardInterrupt:
+            interrupted = True
+        finally:
+            for p in procs:
+                if p.is_alive() and (interrupted or remaining):
+                    p.terminate()
+            for p in procs:
+                p.join(10)
+                if p.is_alive():
+                    p.kill()
+                    p.join()
+    table.finish()
+    plots = [] if interrupted else summary_plots(sw, table)
+    return Outcome(len(trials), skipped, done - skipped, counts["errors"], counts["failed"], interrupted,
+                   table.path, plots)
+
+
+# ---------------------------------------------------------------- summary plots
+def _number(text: str) -> float | None:
+    if text in ("true", "false"):
+        return 1.0 if text == "true" else 0.0
+    try:
+        v = float(text)
+    except ValueError:
+        return None
+    return v if math.isfinite(v) else None
+
+
+def summary_plots(sw: Sweep, table: Table) -> list[Path]:
+    """Each numeric metric against each grid key: mean ± s.d. over trials; one line per value of the other keys."""
+    if not sw.grid or not table.rows:
+        return []
+    from swarmactors.charts import PALETTE, style
+
+    rows = list(table.rows.values())
+    skip = {*sw.keys, "trial", "seed", "ticks", "robots", "alive"}
+    metrics = [c for c in table.header if c not in skip
+               and (c.startswith("metric.") or c in ("frames_sent", "deliveries", "dropped_total", "passed"))
+               and not c.endswith(".value")
+               and any(_number(r.get(c, "")) is not None for r in rows)]
+    metrics = [m for m in metrics if len({r.get(m, "") for r in rows}) > 1 or m == "passed"][:12]
+    if not metrics:
+        return []
+    out = []
+    for ki, (key, values) in enumerate(sw.grid):
+        numeric_x = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
+        xs = {cell(v): (float(v) if numeric_x else i) for i, v in enumerate(values)}
+        others = [k for k in sw.keys if k != key]
+        other_values = [[cell(v) for v in vals] for k, vals in sw.grid if k != key]
+        series = [s for s in itertools.product(*other_values)
+                  if any(tuple(r.get(k, "") for k in others) == s for r in rows)]
+        ncol = min(3, len(metrics))
+        nrow = math.ceil(len(metrics) / ncol)
+        with style() as plt:
+            fig, axes = plt.subplots(nrow, ncol, figsize=(4.0 * ncol, 3.0 * nrow), squeeze=False)
+            for ax, m in zip(axes.flat, metrics):
+                for si, s in enumerate(series):
+                    colour = PALETTE[si % len(PALETTE)]
+                    px, mean, sd = [], [], []
+                    for v in values:
+                        ys = [_number(r.get(m, "")) for r in rows
+                              if r.get(key) == cell(v) and tuple(r.get(k, "") for k in others) == s]
+                        ys = [y for y in ys if y is not None]
+                        if not ys:
+                            continue
+                        x = xs[cell(v)]
+                        ax.scatter([x] * len(ys), ys, s=9, color=colour, alpha=0.35, lw=0)
+                        px.append(x)
+                        mean.append(sum(ys) / len(ys))
+                        sd.append(math.sqrt(sum((y - mean[-1]) ** 2 for y in ys) / len(ys)))
+                    label = ", ".join(f"{k}={v}" for k, v in zip(others, s)) if others else None
+                    ax.errorbar(px, mean, yerr=sd, color=colour, marker="o", ms=4, lw=1.4, capsize=3, label=label)
+                ax.set_title("pass rate (all checks)" if m == "passed" else m.removeprefix("metric."))
+                if m == "passed":
+                    ax.set_ylim(-0.05, 1.05)
+                ax.set_xlabel(key)
+                if not numeric_x:
+                    ax.set_xticks(range(len(values)), [cell(v) for v in values])
+                if others and ax is axes.flat[0]:
+                    ax.legend(loc="best")
+            for ax in list(axes.flat)[len(metrics):]:
+                ax.set_visible(False)
+            fig.suptitle(f"{sw.name}: metrics against {key} (mean ± s.d. over {sw.trials} trials; dots: trials)")
+            fig.tight_layout()
+            path = sw.out / f"summary-{re.sub(r'[^A-Za-z0-9_.-]', '_', key)}.png"
+            fig.savefig(path)
+            plt.close(fig)
+            out.append(path)
+    return out
