@@ -253,9 +253,17 @@ def fig6_snapshots(img: Path, n: int = 10, seed: int = 1, ticks: int = 2000) -> 
         bs = reps[0]
         changes = sorted((t, rid, role) for rid, r in reps.items() for t, role in r["roles"][1:])
         first_rep = next((t for t, _, role in changes if role == "repeater"), 0)
-        reach = bs["reached"][0][1] if bs["reached"] else ticks // 2
-        retract = next((t for t, _, role in changes if role == "explorer" and t > reach), reach + 100)
-        moments = [0, min(first_rep + 30, ticks - 1), min(reach + 5, ticks - 1), min(retract + 30, ticks - 1)]
+        # the tick with the longest chain, then the first retraction after it
+        role_now = {rid: r["roles"][0][1] for rid, r in reps.items()}
+        longest, t_long = -1, first_rep
+        for t, rid, role in changes:
+            role_now[rid] = role
+            k = sum(v == "repeater" for v in role_now.values())
+            if k > longest:
+                longest, t_long = k, t
+        retract = next((t for t, _, role in changes if role == "explorer" and t > t_long), t_long + 100)
+        moments = sorted({0, min(first_rep + 30, ticks - 1), min(t_long + 20, ticks - 1),
+                          min(retract + 30, ticks - 1)})
         snaps = {}
         for t, pos, st in timeline(result):
             if t in moments:
@@ -266,7 +274,7 @@ def fig6_snapshots(img: Path, n: int = 10, seed: int = 1, ticks: int = 2000) -> 
                                                                                for s in snaps.values()
                                                                                if s["target"] < len(bs["targets"])])
     lo, hi = allp.min(axis=0) - 0.3, allp.max(axis=0) + 0.3
-    fig, axes = plt.subplots(1, 4, figsize=(17, 4.8), dpi=100)
+    fig, axes = plt.subplots(1, len(moments), figsize=(17, 4.8), dpi=100)
     style = {"base_station": ("s", "black", "BS"), "repeater": ("^", "black", "RP"),
              "local_leader": ("s", "red", "LL"), "explorer": ("o", "white", "EX")}
     for ax, t in zip(axes, moments):
@@ -290,12 +298,12 @@ def fig6_snapshots(img: Path, n: int = 10, seed: int = 1, ticks: int = 2000) -> 
         ax.set_title(f"tick {t}", fontsize=9)
         ax.grid(alpha=0.2)
     axes[0].legend(fontsize=7, loc="upper left")
-    fig.suptitle(f"Fig. 6 (ours): a patrol, N = {n}, seed {seed}: start, first repeater, first target reached, "
-                 f"after a retraction", fontsize=10)
+    fig.suptitle(f"Fig. 6 (ours): a patrol, N = {n}, seed {seed}: start, first repeater, longest chain, "
+                 f"after the next retraction", fontsize=10)
     fig.tight_layout()
     fig.savefig(img / "roles-fig6-patrol.png")
     plt.close(fig)
-    return {"moments": moments, "targets_reached": len(bs["reached"])}
+    return {"moments": moments, "targets_reached": len(bs["reached"]), "longest_chain": longest}
 
 
 def plot_main(rows: list[dict], img: Path, prefix: str = "roles") -> dict:
@@ -357,7 +365,7 @@ def plot_main(rows: list[dict], img: Path, prefix: str = "roles") -> dict:
         ax.set_title(role, fontsize=9)
         ax.set_xlabel("N")
         ax.grid(alpha=0.3)
-    axes[0].set_ylabel("processing time per robot, scaled to a 2000-tick mission (s)")
+    axes[0].set_ylabel("s per robot, scaled to 2000 ticks")
     fig.suptitle("Fig. 9 (ours): processing time per robot in each role", fontsize=10)
     fig.tight_layout()
     fig.savefig(img / f"{prefix}-fig9-per-role.png")
@@ -394,6 +402,8 @@ def main() -> None:
     ap.add_argument("--only", choices=("prelim", "main"), default=None)
     ap.add_argument("--jobs", type=int, default=max(1, min(2, multiprocessing.cpu_count())))
     ap.add_argument("--quick", action="store_true", help="fewer sizes and ticks (smoke run)")
+    ap.add_argument("--replot", action="store_true",
+                    help="redraw the plots from the JSON file (and rerun the Fig. 3 and Fig. 6 snapshots)")
     ap.add_argument("--d-s", type=float, default=None,
                     help="main experiment with this sensing range d_s < d_c (results under main_ds<value>, "
                          "plots roles-ds<value>-*.png)")
@@ -408,6 +418,24 @@ def main() -> None:
                           "platform": platform.platform(), "jobs": args.jobs,
                           "date": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
     t0 = time.time()
+    if args.replot:
+        def ints(rows):
+            for r in rows:
+                if "cpu_s" in r:
+                    r["cpu_s"] = {int(k): v for k, v in r["cpu_s"].items()}
+            return rows
+        if "preliminary" in results:
+            fig3 = fig3_snapshot()
+            plot_prelim(results["preliminary"]["rows"], args.img, fig3)
+            results["preliminary"]["fig3"] = {k: v for k, v in fig3.items() if k != "pos"}
+        if "main" in results:
+            plot_main(ints(results["main"]["rows"]), args.img)
+            results["main"]["fig6"] = fig6_snapshots(args.img, ticks=results["main"]["ticks"])
+        for key in [k for k in results if k.startswith("main_ds")]:
+            plot_main(ints(results[key]["rows"]), args.img, prefix=f"roles-ds{results[key]['d_s']}")
+        args.out.write_text(json.dumps(results, indent=1, default=float))
+        print(f"replotted from {args.out}")
+        return
     if args.only in (None, "prelim"):
         ns = [10, 50, 100] if args.quick else list(range(10, 101, 10))
         ticks = 200 if args.quick else 1000
