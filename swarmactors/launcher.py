@@ -159,18 +159,25 @@ async def _local_host(link: Link, keys: Keys) -> None:
 def spawn_hosts(endpoint: str, run_id: str, counts: list[int]) -> list[multiprocessing.Process]:
     """Start one host process per count, with the ``spawn`` method and a fixed hash seed."""
     ctx = multiprocessing.get_context("spawn")
-    previous = os.environ.get("PYTHONHASHSEED")
-    os.environ["PYTHONHASHSEED"] = HASH_SEED
-    try:
+    with fixed_hash_seed():
         procs = [ctx.Process(target=host_process, args=(endpoint, run_id, c), daemon=True) for c in counts]
         for p in procs:
             p.start()
+    return procs
+
+
+@contextmanager
+def fixed_hash_seed():
+    """Processes started inside get ``PYTHONHASHSEED`` = HASH_SEED (spawn children inherit the environment)."""
+    previous = os.environ.get("PYTHONHASHSEED")
+    os.environ["PYTHONHASHSEED"] = HASH_SEED
+    try:
+        yield
     finally:
         if previous is None:
             os.environ.pop("PYTHONHASHSEED", None)
         else:
             os.environ["PYTHONHASHSEED"] = previous
-    return procs
 
 
 def assemble(sc: dict, summary: dict, writer: TraceWriter, run_id: str, processes: int, interrupted: bool) -> dict:

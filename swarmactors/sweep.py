@@ -45,6 +45,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from swarmactors.launcher import fixed_hash_seed
 from swarmactors.result import to_jsonable
 from swarmactors.scene import DROP_CAUSES, toml_value
 
@@ -380,18 +381,11 @@ def run_sweep(sw: Sweep, workers: int = 1, keep: str = "failed",
         n = min(workers, len(pending))
         for _ in range(n):
             tasks.put(None)
-        previous = os.environ.get("PYTHONHASHSEED")
-        os.environ["PYTHONHASHSEED"] = "0"
-        try:
+        with fixed_hash_seed():
             procs = [ctx.Process(target=_worker, args=(args, tasks, results), name=f"sweep-worker-{i}")
                      for i in range(n)]
             for p in procs:
                 p.start()
-        finally:
-            if previous is None:
-                os.environ.pop("PYTHONHASHSEED", None)
-            else:
-                os.environ["PYTHONHASHSEED"] = previous
         remaining = len(pending)
         try:
             while remaining:
