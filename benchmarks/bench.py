@@ -17,8 +17,8 @@ Measures on this machine (docs/benchmarks.md explains each number):
    realtime clock, c = 10 ms: the distribution of (delivered latency - c);
 5. where the time goes: cProfile of one N = 1000 lockstep run (K = 0), the
    world and host processes of one N = 1000 K = 2 run, and the garbage
-   collector's share; plus a labelled what-if run with the world process's GC
-   tuned (a diagnostic, not the product's behaviour).
+   collector's share of the world process's tick loop (every run is measured
+   with the collector as the product sets it: ``launcher.quiet_gc``).
 
 Every case runs ``--repeats`` times (3; 1 with ``--quick``), round-robin
 over the cases so that a burst of other load spreads over all of them. The
@@ -156,12 +156,18 @@ def git_changes() -> list[str] | None:
 
 # --------------------------------------------------------------------------- emulator runs
 class GcMeter:
-    """Wall time spent in this process's garbage collector (all generations)."""
+    """Wall time spent in this process's garbage collector (all generations).
+
+    Every collection is kept as (start, seconds, generation), so that the
+    share of one window (the tick loop) can be told apart from the explicit
+    ``gc.collect()`` that ``launcher.quiet_gc`` makes before the run starts.
+    """
 
     def __init__(self) -> None:
         self.seconds = 0.0
         self.collections = [0, 0, 0]
         self.gen2_seconds = 0.0
+        self.events: list[tuple[float, float, int]] = []
         self._t0 = 0.0
 
     def __call__(self, phase: str, info: dict) -> None:
@@ -171,8 +177,18 @@ class GcMeter:
             dt = time.perf_counter() - self._t0
             self.seconds += dt
             self.collections[info["generation"]] += 1
+            self.events.append((self._t0, dt, info["generation"]))
             if info["generation"] == 2:
                 self.gen2_seconds += dt
+
+    def within(self, t0: float, t1: float) -> tuple[float, list[int]]:
+        """GC seconds and collections per generation that started in [t0, t1]."""
+        secs, counts = 0.0, [0, 0, 0]
+        for start, dt, gen in self.events:
+            if t0 <= start <= t1:
+                secs += dt
+                counts[gen] += 1
+        return secs, counts
 
     @contextmanager
     def measuring(self):
@@ -181,20 +197,6 @@ class GcMeter:
             yield self
         finally:
             gc.callbacks.remove(self)
-
-
-@contextmanager
-def tuned_gc():
-    """What-if: move set-up objects out of the GC's reach and collect rarely (this process only)."""
-    old = gc.get_threshold()
-    gc.collect()
-    gc.freeze()
-    gc.set_threshold(50_000, 50, 1000)
-    try:
-        yield
-    finally:
-        gc.set_threshold(*old)
-        gc.unfreeze()
 
 
 def load_beacon(n: int, ticks: int, extra: list[str] = ()) -> dict:
@@ -225,9 +227,10 @@ def run_emulator(sc: dict, k: int, on_open=None, local_host: bool = True, on_tic
     meters = {
         "total_s": total,  # including host start-up, join and reports
         "bench_process_cpu_s": cpu,  # world (+ K=0 robots), all threads, whole run_world call
-        "gc_s": meter.seconds,
+        "gc_s": meter.seconds,  # whole call: includes quiet_gc's gc.collect() before the run
         "gc_gen2_s": meter.gen2_seconds,
         "gc_collections": meter.collections,
+        "gc": meter,
     }
     return data, meters
 
@@ -246,7 +249,7 @@ def check_run(data: dict, n: int, ticks: int) -> list[str]:
     return problems
 
 
-def lockstep_run(n: int, k: int, ticks: int, what_if_gc: bool = False) -> dict:
+def lockstep_run(n: int, k: int, ticks: int) -> dict:
     """One lockstep beacon run; rates over the world's tick loop only (``wall_s``)."""
     sc = load_beacon(n, ticks)
     stamps: list[tuple[float, float]] = []
@@ -259,16 +262,17 @@ def lockstep_run(n: int, k: int, ticks: int, what_if_gc: bool = False) -> dict:
             stamps[1] = stamp
 
     load = os.getloadavg()[0]
-    if what_if_gc:
-        with tuned_gc():
-            data, meters = run_emulator(sc, k, on_tick=on_tick)
-    else:
-        data, meters = run_emulator(sc, k, on_tick=on_tick)
+    data, meters = run_emulator(sc, k, on_tick=on_tick)
     wall = data["wall_s"]
     rt = n * data["ticks"]
-    cpu_frac = None
+    cpu_frac = gc_share = None
+    gc_loop_s, gc_loop_collections = 0.0, [0, 0, 0]
     if len(stamps) == 2 and stamps[1][0] > stamps[0][0]:
-        cpu_frac = (stamps[1][1] - stamps[0][1]) / (stamps[1][0] - stamps[0][0])
+        span = stamps[1][0] - stamps[0][0]
+        cpu_frac = (stamps[1][1] - stamps[0][1]) / span
+        # the collector's share of the tick loop (first to last tick), in the world process
+        gc_loop_s, gc_loop_collections = meters["gc"].within(stamps[0][0], stamps[1][0])
+        gc_share = gc_loop_s / span
     return {
         "wall_s": wall,
         "robot_ticks": rt,
@@ -278,16 +282,18 @@ def lockstep_run(n: int, k: int, ticks: int, what_if_gc: bool = False) -> dict:
         "deliveries_per_s": data["world"]["deliveries"] / wall,
         "frames_sent": data["world"]["frames_sent"],
         "world_cpu_frac": cpu_frac,
-        "gc_s": meters["gc_s"],
-        "gc_gen2_s": meters["gc_gen2_s"],
-        "gc_collections": meters["gc_collections"],
+        "gc_share_tick_loop": gc_share,
+        "gc_tick_loop_s": gc_loop_s,
+        "gc_tick_loop_collections": gc_loop_collections,
+        "gc_whole_call_s": meters["gc_s"],
+        "gc_whole_call_collections": meters["gc_collections"],
         "total_s": meters["total_s"],
         "loadavg_1m_before": load,
         "problems": check_run(data, n, ticks),
     }
 
 
-def aggregate(n: int, k: int, ticks: int, runs: list[dict], what_if_gc: bool = False) -> dict:
+def aggregate(n: int, k: int, ticks: int, runs: list[dict]) -> dict:
     """One case over its repeats: the best run (least disturbed by other load) and the median."""
     ordered = sorted(runs, key=lambda r: r["robot_ticks_per_s"])
     med, best = ordered[len(runs) // 2], ordered[-1]
@@ -296,7 +302,6 @@ def aggregate(n: int, k: int, ticks: int, runs: list[dict], what_if_gc: bool = F
         "k": k,
         "ticks": ticks,
         "repeats": len(runs),
-        "gc_tuned_what_if": what_if_gc,
         "robot_ticks_per_s": best["robot_ticks_per_s"],
         "robot_ticks_per_s_median": med["robot_ticks_per_s"],
         "robot_ticks_per_s_min": ordered[0]["robot_ticks_per_s"],
@@ -306,7 +311,7 @@ def aggregate(n: int, k: int, ticks: int, runs: list[dict], what_if_gc: bool = F
         "deliveries_per_s_median": med["deliveries_per_s"],
         "deliveries_per_robot_tick": best["deliveries"] / best["robot_ticks"],
         "wall_s": best["wall_s"],
-        "gc_share": best["gc_s"] / best["wall_s"],
+        "gc_share": best["gc_share_tick_loop"],
         "world_cpu_frac": best["world_cpu_frac"],
         "runs": runs,
     }
@@ -453,14 +458,8 @@ def realtime_case(n: int, k: int, seconds: float) -> dict:
         rep = r.get("latency_probe") or {}
         delays += rep.get("delays", [])
         uplink += rep.get("uplink", [])
-    delays_a, uplink_a = np.array(delays), np.array(uplink)
-    # A receiver whose ctx.now counted from the Unix epoch instead of the run's
-    # start (a host start-up race, see docs/benchmarks.md) gives delays of ~1e9 s:
-    # not a latency. Such samples are counted and reported, and left out of the
-    # distribution.
-    glitch = np.abs(delays_a) > 1e6
-    err_ms = (delays_a[~glitch] - c) * 1e3
-    up_ms = uplink_a[~glitch] * 1e3
+    err_ms = (np.array(delays) - c) * 1e3
+    up_ms = np.array(uplink) * 1e3
 
     def dist(a: np.ndarray) -> dict:
         if not a.size:
@@ -484,7 +483,6 @@ def realtime_case(n: int, k: int, seconds: float) -> dict:
         "wall_s": data["wall_s"],
         "samples": int(err_ms.size),
         "deliveries": data["world"]["deliveries"],
-        "excluded_clock_glitch": int(glitch.sum()),
         "error_ms": dist(err_ms),
         "uplink_ms": dist(up_ms),
         "rest_ms": dist(err_ms - up_ms),
@@ -702,7 +700,7 @@ def print_tables(res: dict) -> None:
         "deliveries/s",
         "deliv. per robot-tick",
         "world proc CPU",
-        "GC share of wall (world proc)",
+        "GC share of tick loop (world proc)",
     ):
         t.add_column(col, justify="right")
     for c in res["lockstep"]:
@@ -716,7 +714,7 @@ def print_tables(res: dict) -> None:
             fmt(c["deliveries_per_s"]),
             fmt(c["deliveries_per_robot_tick"], 2),
             pct(c["world_cpu_frac"]),
-            f"{100 * c['gc_share']:.0f}%",
+            pct(c["gc_share"]),
         )
     console.print(t)
 
@@ -776,17 +774,13 @@ def print_tables(res: dict) -> None:
         "uplink p50",
         "uplink p99",
         "p99 all runs",
-        "excluded (ctx.now glitch), all runs",
     ):
         t.add_column(col, justify="right")
-    rows = [(str(c["k"]), c) for c in res["realtime"]]
-    if res.get("what_if_gc_realtime"):
-        rows.append(("0, what-if GC tuned", res["what_if_gc_realtime"]))
-    for label, c in rows:
+    for c in res["realtime"]:
         e, u = c["error_ms"], c["uplink_ms"]
         t.add_row(
             str(c["n"]),
-            label,
+            str(c["k"]),
             fmt(c["samples"]),
             fmt(e.get("p50"), 2),
             fmt(e.get("p90"), 2),
@@ -796,7 +790,6 @@ def print_tables(res: dict) -> None:
             fmt(u.get("p50"), 2),
             fmt(u.get("p99"), 2),
             " ".join(fmt(x, 1) for x in c["p99_all_runs_ms"]),
-            " ".join(str(x) for x in c["excluded_clock_glitch_all_runs"]),
         )
     console.print(t)
 
@@ -854,23 +847,6 @@ def print_tables(res: dict) -> None:
             )
         console.print(t)
 
-    by = {(c["n"], c["k"]): c for c in res["lockstep"]}
-    t = Table(
-        title="What-if, not the product's behaviour: world process with gc.freeze() + gc thresholds (50000, 50, 1000)"
-    )
-    for col in ("N", "K", "robot-ticks/s", "vs default", "GC share (world proc)"):
-        t.add_column(col, justify="right")
-    for c in res["what_if_gc"]:
-        base = by[(c["n"], c["k"])]["robot_ticks_per_s"]
-        t.add_row(
-            str(c["n"]),
-            str(c["k"]),
-            fmt(c["robot_ticks_per_s"]),
-            f"{c['robot_ticks_per_s'] / base:.2f}x",
-            f"{100 * c['gc_share']:.0f}%",
-        )
-    console.print(t)
-
     t = Table(title="Targets")
     for col in ("target", "measured", "met"):
         t.add_column(col)
@@ -922,7 +898,7 @@ def markdown(res: dict) -> str:
         "### Lockstep throughput (beacon)",
         "",
         "| N | K | ticks | robot-ticks/s (best) | median | µs / robot-tick | deliveries/s | deliveries / robot-tick "
-        "| world process CPU | GC share of wall (world process) |",
+        "| world process CPU | GC share of tick loop (world process) |",
         "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for c in res["lockstep"]:
@@ -967,36 +943,16 @@ def markdown(res: dict) -> str:
         f"### Realtime latency error (delivered latency − c), ms; c = 10 ms, dt = 50 ms, "
         f"{res['config']['realtime_s']:g} s per run; the run with the lowest p99",
         "",
-        "| N | K | samples | p50 | p90 | p99 | max | min | uplink p50 | uplink p99 | p99 of every run "
-        "| samples excluded (ctx.now glitch), every run |",
-        "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|",
+        "| N | K | samples | p50 | p90 | p99 | max | min | uplink p50 | uplink p99 | p99 of every run |",
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
-    rows = [(str(c["k"]), c) for c in res["realtime"]] + [("0, what-if: GC tuned", res["what_if_gc_realtime"])]
-    for label, c in rows:
+    for c in res["realtime"]:
         e, u = c["error_ms"], c["uplink_ms"]
+        p99s = ", ".join(fmt(x, 1) for x in c["p99_all_runs_ms"])
         out.append(
-            f"| {c['n']} | {label} | {fmt(c['samples'])} | {fmt(e['p50'], 2)} | {fmt(e['p90'], 2)} | "
+            f"| {c['n']} | {c['k']} | {fmt(c['samples'])} | {fmt(e['p50'], 2)} | {fmt(e['p90'], 2)} | "
             f"{fmt(e['p99'], 2)} | {fmt(e['max'], 2)} | {fmt(e['min'], 2)} | {fmt(u['p50'], 2)} | "
-            f"{fmt(u['p99'], 2)} | "
-            + ", ".join(fmt(x, 1) for x in c["p99_all_runs_ms"])
-            + " | "
-            + ", ".join(str(x) for x in c["excluded_clock_glitch_all_runs"])
-            + " |"
-        )
-    by = {(c["n"], c["k"]): c for c in res["lockstep"]}
-    out += [
-        "",
-        "### What-if: garbage collector tuned (not the product's behaviour)",
-        "",
-        "| what-if (world process GC frozen + thresholds (50000, 50, 1000)) | robot-ticks/s (best) | median "
-        "| vs default (best) | GC share |",
-        "|---|---:|---:|---:|---:|",
-    ]
-    for c in res["what_if_gc"]:
-        base = by[(c["n"], c["k"])]["robot_ticks_per_s"]
-        out.append(
-            f"| N = {c['n']}, K = {c['k']} | {fmt(c['robot_ticks_per_s'])} | "
-            f"{fmt(c['robot_ticks_per_s_median'])} | {c['robot_ticks_per_s'] / base:.2f}x | {pct(c['gc_share'])} |"
+            f"{fmt(u['p99'], 2)} | {p99s} |"
         )
     p = res["profile"]["k0"]
     out += [
@@ -1088,18 +1044,16 @@ def main(argv: list[str] | None = None) -> int:
 
     # Round-robin over the cases, repeat by repeat, so that a burst of load on
     # the machine spreads over every case instead of spoiling one.
-    cases = [(n, k, False) for n in (10, 100, 1000) for k in (0, 2)] + [(1000, k, True) for k in (0, 2)]
+    cases = [(n, k) for n in (10, 100, 1000) for k in (0, 2)]
     runs: dict[tuple, list] = {c: [] for c in cases}
     for rep in range(cfg["repeats"]):
-        for n, k, what_if in cases:
-            label = " (what-if: world GC tuned)" if what_if else ""
-            console.log(f"[{rep + 1}/{cfg['repeats']}] lockstep beacon N={n} K={k}, {cfg['ticks'][n]} ticks{label}")
-            run = lockstep_run(n, k, cfg["ticks"][n], what_if)
+        for n, k in cases:
+            console.log(f"[{rep + 1}/{cfg['repeats']}] lockstep beacon N={n} K={k}, {cfg['ticks'][n]} ticks")
+            run = lockstep_run(n, k, cfg["ticks"][n])
             for prob in run["problems"]:
                 console.log(f"[red]N={n} K={k}: {prob}")
-            runs[(n, k, what_if)].append(run)
-    res["lockstep"] = [aggregate(n, k, cfg["ticks"][n], runs[(n, k, False)]) for n, k, w in cases if not w]
-    res["what_if_gc"] = [aggregate(n, k, cfg["ticks"][n], runs[(n, k, True)], True) for n, k, w in cases if w]
+            runs[(n, k)].append(run)
+    res["lockstep"] = [aggregate(n, k, cfg["ticks"][n], runs[(n, k)]) for n, k in cases]
     by = {(c["n"], c["k"]): c for c in res["lockstep"]}
     res["scaling"] = {
         str(k): {
@@ -1140,30 +1094,20 @@ def main(argv: list[str] | None = None) -> int:
         "ratio_vs_indirect_false": emu / raw_direct["msgs_per_s"] if raw_direct.get("msgs_per_s") else float("nan"),
     }
 
-    rt_runs: dict[str, list] = {"0": [], "2": [], "0-gc": []}
+    rt_runs: dict[int, list] = {0: [], 2: []}
     for rep in range(cfg["repeats"]):
-        for variant in rt_runs:
-            k = int(variant[0])
-            label = " (what-if: GC tuned)" if variant.endswith("gc") else ""
-            console.log(
-                f"[{rep + 1}/{cfg['repeats']}] realtime latency probe N=100 K={k}, {cfg['realtime_s']} s{label}"
-            )
-            if variant.endswith("gc"):
-                with tuned_gc():
-                    rt_runs[variant].append(realtime_case(100, k, cfg["realtime_s"]))
-            else:
-                rt_runs[variant].append(realtime_case(100, k, cfg["realtime_s"]))
+        for k in rt_runs:
+            console.log(f"[{rep + 1}/{cfg['repeats']}] realtime latency probe N=100 K={k}, {cfg['realtime_s']} s")
+            rt_runs[k].append(realtime_case(100, k, cfg["realtime_s"]))
 
     def best_rt(rs: list[dict]) -> dict:
         ordered = sorted(rs, key=lambda r: r["error_ms"].get("p99", float("inf")))
         out = dict(ordered[0])
         out["p99_all_runs_ms"] = [r["error_ms"].get("p99") for r in rs]
         out["p99_median_ms"] = ordered[len(ordered) // 2]["error_ms"].get("p99")
-        out["excluded_clock_glitch_all_runs"] = [r["excluded_clock_glitch"] for r in rs]
         return out
 
-    res["realtime"] = [best_rt(rt_runs["0"]), best_rt(rt_runs["2"])]
-    res["what_if_gc_realtime"] = best_rt(rt_runs["0-gc"])
+    res["realtime"] = [best_rt(rt_runs[0]), best_rt(rt_runs[2])]
 
     console.log("profiling N=1000 K=0")
     res["profile"] = {"k0": profile_k0(1000, cfg["profile_ticks"])}
