@@ -1,0 +1,88 @@
+"""Pinned trace hashes: the shipped lockstep scenarios and the conformance suites' lockstep cases.
+
+A trace hash is a digest of everything that happened in a run (positions, deliveries, drops with their
+cause, status changes, events). These literals are the hashes of today's model. A refactor or a speed-up
+must leave every one unchanged, with one host process or several. A pin changes only in a commit whose
+message names the issue and the reason (a change of the model, e.g. a new radio semantics) - never silently.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from swarmactors.conformance import families, run_case
+from swarmactors.launcher import run
+
+pytestmark = pytest.mark.slow
+
+SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
+
+# scenarios/<file>: trace hash (lockstep, the file's own seed)
+SCENARIO_PINS = {
+    "beacon.toml": "0c424080df0c7d8d034b58b658f4e01e",
+    "biconnected-add-remove.toml": "7999bf42ad0d477e9c9492cc70f731c9",
+    "biconnected-removal.toml": "454381525010a7b6644fea7a3a7ee462",
+    "biconnectivity-check.toml": "336f63f143200f834e4fab2102420c15",
+    "cbaa.toml": "da5540292cc58ef9571fac36f37345e6",
+    "flooding.toml": "0e3ad8f9bd65636fa622d3e3bbc9e90f",
+    "roles-aat.toml": "84e75f28cd9855bc0ecee67eb2b85352",
+    "roles-patrol.toml": "40afe03e2c9d87a774380ebf7517d834",
+    "stigmergy.toml": "df9a3f0a12473e58a660537ee6ade53e",
+}
+
+# quick-suite lockstep cases of every conformance family, built-in behaviour: trace hash
+CASE_PINS = {
+    "biconnectivity/ring-6": "9c4d9a355ad4aeca1a5a22ab246b3e17",
+    "biconnectivity/ladder-8": "f07aa491eb61f1aa579a0554b3771db7",
+    "biconnectivity/comb-7": "dbd74b2bee00716bbffc3fd9823c2ce1",
+    "biconnectivity/bowtie-5": "5cfb6e3c5b0c12f0811981e8180a4e34",
+    "biconnectivity/two-components": "8d1be579af871e3239247ba736cb2137",
+    "cbaa/line-6-tied-tasks-5": "5773f113c73226dd56f17687e6202421",
+    "cbaa/line-6-tasks-4": "f9543980b59f75af9d5afed32d7f4b9d",
+    "cbaa/ring-8-tasks-10": "d7b65fb83f4956c866916a7fc85d2692",
+    "cbaa/rgg-15-s1-tasks-8": "a8ad0711e4580e23ed9612faf999bf7f",
+    "flooding/ring-8": "11368f54f8eb23d42ed2517b74e6c212",
+    "flooding/comb-9": "939381ee80f49afc9ee1eae8f625d1b9",
+    "flooding/rgg-20-s1": "e77f95691e729d29446986b355d78421",
+    "flooding/rgg-20-s1-loss-0.2": "eeee4e48dc65490a7301525738599cf9",
+    "flooding/line-8-killed-relay": "e1f8a7490962231401b02f4918b64bb8",
+    "roles/patrol-10-s1": "6f80659879f356e28b7a34146d416650",
+    "roles/patrol-20-s3": "ba7d21f9e85a205e5efff2c25361f9c4",
+    "roles/patrol-10-s2-loss-0.1": "e29a4156897d3edea8964f84bc4e851b",
+    "stigmergy/ring-10": "e47282caa9d1d1db51f657b644fdc888",
+    "stigmergy/rgg-20-s1": "7c94528d4b213934d8c10eda0f209eb7",
+    "stigmergy/two-components": "70cfb08999bd23fc94d4d7f95eec164c",
+    "stigmergy/rgg-20-s2-loss-0.2-anti-entropy": "3ea523cc308013f80b91cb73892e1206",
+}
+
+
+def test_every_shipped_lockstep_scenario_is_pinned():
+    lockstep = {p.name for p in SCENARIOS.glob("*.toml")
+                if tomllib.loads(p.read_text()).get("run", {}).get("clock", "lockstep") == "lockstep"}
+    assert lockstep == set(SCENARIO_PINS)
+
+
+def test_every_quick_lockstep_case_is_pinned():
+    cases = {c.name for fam in families().values() for c in fam.suite("quick")
+             if c.scenario.get("run", {}).get("clock", "lockstep") == "lockstep"}
+    assert cases == set(CASE_PINS)
+
+
+@pytest.mark.parametrize("processes", [0, 2])
+@pytest.mark.parametrize("name", sorted(SCENARIO_PINS))
+def test_shipped_scenario_trace_hash_is_pinned(name, processes, tmp_path):
+    result = run(SCENARIOS / name, out=tmp_path, processes=processes)
+    assert result["trace_hash"] == SCENARIO_PINS[name]
+
+
+@pytest.mark.parametrize("case_name", sorted(CASE_PINS))
+def test_conformance_case_trace_hash_is_pinned(case_name, tmp_path):
+    family = families()[case_name.split("/")[0]]
+    (case,) = [c for c in family.suite("quick") if c.name == case_name]
+    result = run_case(family, case, None, tmp_path, determinism=True)  # K=0, then K=2 must give the same hash
+    determinism = [o for o in result.outcomes if o["name"] == "determinism"]
+    assert determinism and determinism[0]["passed"], determinism
+    assert result.trace_hash == CASE_PINS[case_name]
