@@ -7,23 +7,24 @@ Fixtures:
   test's temporary directory; overrides as for ``swarmactors.run``.
 * ``conformance`` - ``conformance(family, BehaviorClass)``: run one case of the
   family's suite against the class and fail with the oracle's report. The test
-  is parametrised over the family's cases, so::
+  is parametrised over the family's cases (one test per case). The family is
+  named where pytest sees it when it collects the test, by the marker
+  ``@pytest.mark.conformance_family("name")`` (on the test, its class or the
+  module's ``pytestmark``)::
 
+      @pytest.mark.conformance_family("biconnectivity")
       def test_my_bicon(conformance):
           conformance("biconnectivity", MyBicon)
 
-  gives one test per case. The family is read from the call in the test's
-  body (or from ``@pytest.mark.conformance_family("name")``); the suite is the
-  quick one unless ``--swarm-full`` is given.
+  or, in one line, ``test_my_bicon = conformance_test("biconnectivity", MyBicon)``.
+  The suite is the quick one unless ``--swarm-full`` is given.
 """
 
 from __future__ import annotations
 
-import ast
-import inspect
-import textwrap
-
 import pytest
+
+MARKER = "conformance_family"
 
 
 def pytest_addoption(parser):
@@ -31,20 +32,22 @@ def pytest_addoption(parser):
 
 
 def pytest_configure(config):
-    config.addinivalue_line("markers", "conformance_family(name): the family the conformance fixture runs")
+    config.addinivalue_line("markers", f"{MARKER}(name): the family the conformance fixture runs")
 
 
-def _family_of(function) -> str | None:
-    """The first string literal passed to ``conformance(...)`` in the test's body."""
-    try:
-        tree = ast.parse(textwrap.dedent(inspect.getsource(function)))
-    except (OSError, TypeError, SyntaxError):
-        return None
-    for node in ast.walk(tree):
-        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "conformance"
-                and node.args and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)):
-            return node.args[0].value
-    return None
+def conformance_test(family: str, behavior=None, determinism: bool = True):
+    """A test function that runs ``family``'s suite (one test per case) against ``behavior``.
+
+    ``behavior`` is a Behavior class, a ``module:Class`` path, or None for the family's built-in
+    implementation. Assign the result to a ``test_...`` name in a test module.
+    """
+
+    @pytest.mark.conformance_family(family)
+    def test(conformance):
+        conformance(family, behavior, determinism=determinism)
+
+    test.__doc__ = f"The {family} conformance suite against {getattr(behavior, '__name__', behavior or 'the built-in')}."
+    return test
 
 
 def pytest_generate_tests(metafunc):
@@ -52,11 +55,12 @@ def pytest_generate_tests(metafunc):
         return
     from swarmactors.conformance import select
 
-    marker = metafunc.definition.get_closest_marker("conformance_family")
-    family = marker.args[0] if marker else _family_of(metafunc.function)
-    if family is None:
-        raise pytest.UsageError(f"{metafunc.function.__name__}: cannot tell which family the conformance fixture "
-                                f"runs; call conformance(\"family\", Class) or mark conformance_family(\"name\")")
+    marker = metafunc.definition.get_closest_marker(MARKER)
+    if marker is None or len(marker.args) != 1 or not isinstance(marker.args[0], str):
+        raise pytest.UsageError(
+            f"{metafunc.function.__name__}: the conformance fixture needs the family: mark the test "
+            f"@pytest.mark.{MARKER}(\"name\") or write test_x = conformance_test(\"name\", Class)")
+    family = marker.args[0]
     mode = "full" if metafunc.config.getoption("--swarm-full") else "quick"
     cases = [case.name for _, case in select(family, mode)]
     metafunc.parametrize("conformance", [(family, mode, c) for c in cases], ids=cases, indirect=True)

@@ -19,18 +19,26 @@ TESTS = Path(__file__).resolve().parent
 
 
 # -- the built-in implementations pass their own quick suites (one test per case, via the plugin) --------------
+@pytest.mark.slow
+@pytest.mark.conformance_family("flooding")
 def test_builtin_flooding(conformance):
     conformance("flooding")
 
 
+@pytest.mark.slow
+@pytest.mark.conformance_family("biconnectivity")
 def test_builtin_biconnectivity(conformance):
     conformance("biconnectivity")
 
 
+@pytest.mark.slow
+@pytest.mark.conformance_family("stigmergy")
 def test_builtin_stigmergy(conformance):
     conformance("stigmergy")
 
 
+@pytest.mark.slow
+@pytest.mark.conformance_family("cbaa")
 def test_builtin_cbaa(conformance):
     conformance("cbaa")
 
@@ -60,6 +68,7 @@ MUTANTS = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("family,mutant,case,check", MUTANTS, ids=[m[1] for m in MUTANTS])
 def test_mutant_is_caught_by_the_named_case(family, mutant, case, check, tmp_path):
     fam, c = case_by_name(family, case)
@@ -70,6 +79,7 @@ def test_mutant_is_caught_by_the_named_case(family, mutant, case, check, tmp_pat
     assert result.reproduce and Path(result.reproduce).exists()
 
 
+@pytest.mark.slow
 def test_mutants_of_a_family_fail_and_builtin_passes_the_same_case(tmp_path):
     fam, c = case_by_name("cbaa", "cbaa/line-6-tied-tasks-5")
     assert run_case(fam, c, None, tmp_path / "builtin", determinism=False).passed  # control
@@ -81,6 +91,7 @@ def check_cmd(*args, cwd=TESTS):
                           text=True, timeout=600)
 
 
+@pytest.mark.slow
 def test_user_behaviour_from_outside_the_project_runs_and_is_checked(tmp_path):
     (tmp_path / "myflood.py").write_text(textwrap.dedent("""
         from protocols.flooding import Flooding
@@ -104,6 +115,7 @@ BAD_USERS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", sorted(BAD_USERS))
 def test_bad_user_behaviour_gives_a_clear_error_and_exit_2(kind, tmp_path):
     (tmp_path / "badflood.py").write_text(textwrap.dedent("""
@@ -129,6 +141,7 @@ def test_bad_user_behaviour_gives_a_clear_error_and_exit_2(kind, tmp_path):
     assert "Traceback" not in out.stderr
 
 
+@pytest.mark.slow
 def test_failure_report_junit_and_reproduction(tmp_path):
     junit = tmp_path / "report.xml"
     out = check_cmd("flooding", "--behavior", "mutants:FloodIgnoresExpiry", "--clock", "lockstep",
@@ -157,12 +170,14 @@ def test_failure_report_junit_and_reproduction(tmp_path):
     assert again["flooding.reach"]["first_tick"] == failed["first_tick"]
 
 
+@pytest.mark.slow
 def test_check_rejects_an_unknown_family():
     out = check_cmd("telepathy")
     assert out.returncode == 2 and "unknown family 'telepathy'" in out.stderr
 
 
 # -- the Python API and the swarm_run fixture ------------------------------------------------------------------
+@pytest.mark.slow
 def test_scenario_builder_and_swarm_run_fixture(swarm_run):
     sc = (Scenario("api", seed=2, ticks=10)
           .robots(positions=[[0.0, 0.0], [0.8, 0.0], [1.6, 0.0]],
@@ -174,3 +189,44 @@ def test_scenario_builder_and_swarm_run_fixture(swarm_run):
     lossy = swarm_run(sc.raw, radio__loss=1.0)  # overrides as keyword arguments
     assert lossy["world"]["dropped"]["loss"] > 0
     assert "loss = 1.0" in sc.radio(loss=1.0).to_toml()
+
+
+# -- the pytest plugin in a user's own suite: the family comes from a marker or conformance_test ---------------
+USER_TESTS = '''
+import pytest
+from swarmactors.pytest_plugin import conformance_test
+
+test_flood_mutant = conformance_test("flooding", "mutants:FloodBackToSender", determinism=False)
+
+@pytest.mark.conformance_family("flooding")
+def test_flood_builtin(conformance):
+    conformance("flooding", determinism=False)
+
+def test_no_family(conformance):
+    conformance("flooding")
+'''
+
+
+def _pytest_user_file(tmp_path, body: str, *args: str) -> subprocess.CompletedProcess:
+    (tmp_path / "test_user.py").write_text(body)
+    env = {**__import__("os").environ, "PYTHONPATH": str(TESTS)}
+    return subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_user.py", *args],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=300, env=env)
+
+
+@pytest.mark.slow
+def test_plugin_reads_the_family_from_the_marker_or_conformance_test(tmp_path):
+    user = USER_TESTS.replace("def test_no_family", "def _unused")
+    out = _pytest_user_file(tmp_path, user, "-k", "ring-8", "-rA")
+    text = out.stdout + out.stderr
+    assert "test_flood_builtin[flooding/ring-8] PASSED" in text or "PASSED test_user.py::test_flood_builtin" in text, text
+    assert "test_flood_mutant[flooding/ring-8]" in text and "1 failed, 1 passed" in text, text
+    assert "flooding.not_to_sender" in text, text  # the oracle's report names the failed check
+
+
+@pytest.mark.slow
+def test_plugin_without_a_family_is_a_usage_error(tmp_path):
+    out = _pytest_user_file(tmp_path, USER_TESTS, "-k", "no_family")
+    text = out.stdout + out.stderr
+    assert out.returncode != 0
+    assert "test_no_family" in text and "conformance_family" in text, text
