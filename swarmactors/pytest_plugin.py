@@ -46,7 +46,8 @@ def conformance_test(family: str, behavior=None, determinism: bool = True):
     def test(conformance):
         conformance(family, behavior, determinism=determinism)
 
-    test.__doc__ = f"The {family} conformance suite against {getattr(behavior, '__name__', behavior or 'the built-in')}."
+    name = getattr(behavior, "__name__", behavior or "the built-in behaviour")
+    test.__doc__ = f"The {family} conformance suite against {name}."
     return test
 
 
