@@ -621,7 +621,7 @@ def profile_k2(n: int, ticks: int) -> dict:
 
         def on_open(world, link) -> None:
             endpoint = link.locators()[0]
-            for count, path in zip(launcher.split(n, 2), paths):
+            for count, path in zip(launcher.split(n, 2), paths, strict=True):
                 p = ctx.Process(target=_profiled_host, args=(endpoint, run_id, count, path), daemon=True)
                 p.start()
                 procs.append(p)
@@ -988,7 +988,7 @@ def markdown(res: dict) -> str:
         ]
         out += [
             f"| host {i} | {b:.2f} | {pct(f)} |"
-            for i, (b, f) in enumerate(zip(k2["host_busy_s"], k2["host_busy_frac"]))
+            for i, (b, f) in enumerate(zip(k2["host_busy_s"], k2["host_busy_frac"], strict=True))
         ]
         ws = k2["world"]["stages"]
         out += [

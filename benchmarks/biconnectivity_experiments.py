@@ -85,9 +85,12 @@ def ring(n: int) -> np.ndarray:
 
 
 def stadium(n: int = 35, chords: int = 0) -> np.ndarray:
-    """A ring of n robots drawn as a stadium: two rows 1.6 apart joined by cap robots at the ends (two on the
-    left when the count is odd), plus ``chords`` robots between the rows, each linking the robot above it to
-    the one below it (a chord of length 2). With ``chords = 0`` the graph is the ring C_n."""
+    """A ring of n robots drawn as a stadium, optionally with chords.
+
+    Two rows 1.6 apart joined by cap robots at the ends (two on the left when the count is odd), plus
+    ``chords`` robots between the rows, each linking the robot above it to the one below it (a chord of
+    length 2). With ``chords = 0`` the graph is the ring C_n.
+    """
     row = (n - 2 - chords) // 2
     two_left = (n - 2 - chords) % 2 == 1
     bottom = [[S * i, 0.0] for i in range(row)]
@@ -183,7 +186,7 @@ def plot_messages(data: dict, path: Path) -> None:
         ax.plot(xs, ys, styles.get(name, "o-"), label=f"{name} (oracle)", alpha=0.8)
         em = [(r["n"], r["mean_sent"]) for r in rows if r.get("emulated")]
         if em:
-            ax.scatter(*zip(*em), s=80, facecolors="none", edgecolors="k", zorder=3)
+            ax.scatter(*zip(*em, strict=True), s=80, facecolors="none", edgecolors="k", zorder=3)
     st = data["families"].get("stadium35+chords", [])
     for r in st:
         if r["oracle_mean_sent"]:
@@ -406,7 +409,7 @@ def plot_coverage(data: dict, path: Path) -> None:
     for i, nb in enumerate(adj):
         for j in nb:
             if i < j:
-                cx.plot(*zip(pts[i], pts[j]), color="0.5", lw=0.6)
+                cx.plot(*zip(pts[i], pts[j], strict=True), color="0.5", lw=0.6)
     cx.scatter(pts[:, 0], pts[:, 1], s=8, color="k")
     cx.set_aspect("equal")
     cx.autoscale()
@@ -431,7 +434,7 @@ def loss_sweep(quick: bool) -> dict:
         agg = {"p": p, "checks": 0, "correct": 0, "wrong": 0, "missing": 0, "wrong_true": 0, "wrong_false": 0,
                "checks_on_biconnected": 0, "wrong_on_biconnected": 0, "missing_on_biconnected": 0,
                "checks_on_not_biconnected": 0, "wrong_on_not_biconnected": 0, "missing_on_not_biconnected": 0}
-        for name, (pts, truth) in graphs.items():
+        for pts, truth in graphs.values():
             for seed in seeds:
                 result, _, _ = run_check(pts, n_max=max(len(pts), 3), loss=p, seed=seed)
                 assert result["stop_reason"] is None
@@ -461,9 +464,9 @@ def plot_loss(data: dict, path: Path) -> None:
     for cls, colour in (("biconnected", "tab:blue"), ("not_biconnected", "tab:red")):
         n = [max(1, r[f"checks_on_{cls}"]) for r in rows]
         label = cls.replace("_", " ")
-        ax.plot(p, [r[f"wrong_on_{cls}"] / k for r, k in zip(rows, n)], "o-", color=colour,
+        ax.plot(p, [r[f"wrong_on_{cls}"] / k for r, k in zip(rows, n, strict=True)], "o-", color=colour,
                 label=f"wrong verdict, {label} graphs")
-        ax.plot(p, [r[f"missing_on_{cls}"] / k for r, k in zip(rows, n)], "x--", color=colour,
+        ax.plot(p, [r[f"missing_on_{cls}"] / k for r, k in zip(rows, n, strict=True)], "x--", color=colour,
                 label=f"no verdict (timeout), {label} graphs")
     ax.set_xlabel("per-frame loss p")
     ax.set_ylabel("fraction of check-running robots")

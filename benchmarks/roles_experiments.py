@@ -90,7 +90,7 @@ def prelim_job(n: int, seed: int, ticks: int) -> dict:
 
 
 def main_job(n: int, seed: int, ticks: int, params: dict | None = None) -> dict:
-    """One patrol trial of Sec. IV-B."""
+    """One patrol trial of Sec. IV-B; ``params`` go to ``patrol_scenario`` (``d_s``: the groups' sensing range)."""
     import shutil
 
     from protocols.roles import disconnection_episodes, patrol_scenario
@@ -201,12 +201,12 @@ def plot_prelim(rows: list[dict], img: Path, fig3: dict | None) -> dict:
 
     if fig3:
         fig, ax = plt.subplots(1, 2, figsize=(11, 5.2), dpi=110)
-        for a, mode in zip(ax, ("proposed", "baseline")):
+        for a, mode in zip(ax, ("proposed", "baseline"), strict=True):
             pos = {int(k): v for k, v in fig3["pos"].items()}
             for i, j in fig3[mode]:
-                a.plot(*zip(pos[i], pos[j]), color="0.4", lw=1)
+                a.plot(*zip(pos[i], pos[j], strict=True), color="0.4", lw=1)
             for i, j in fig3["missing"] if mode == "proposed" else []:
-                a.plot(*zip(pos[i], pos[j]), color="red", lw=1, ls="--")
+                a.plot(*zip(pos[i], pos[j], strict=True), color="red", lw=1, ls="--")
             xy = np.array(list(pos.values()))
             a.scatter(xy[:, 0], xy[:, 1], s=60, c="white", edgecolors="tab:blue", zorder=3)
             for rid, p in pos.items():
@@ -277,10 +277,10 @@ def fig6_snapshots(img: Path, n: int = 10, seed: int = 1, ticks: int = 2000) -> 
     fig, axes = plt.subplots(1, len(moments), figsize=(17, 4.8), dpi=100)
     style = {"base_station": ("s", "black", "BS"), "repeater": ("^", "black", "RP"),
              "local_leader": ("s", "red", "LL"), "explorer": ("o", "white", "EX")}
-    for ax, t in zip(axes, moments):
+    for ax, t in zip(axes, moments, strict=True):
         s = snaps[t]
         for a, b in s["links"]:
-            ax.plot(*zip(s["pos"][a], s["pos"][b]), color="0.5", lw=0.8, zorder=1)
+            ax.plot(*zip(s["pos"][a], s["pos"][b], strict=True), color="0.5", lw=0.8, zorder=1)
         for role, (mk, fc, lab) in style.items():
             pts = [s["pos"][r] for r in s["pos"] if s["role"][r] == role]
             if pts:
@@ -359,7 +359,7 @@ def plot_main(rows: list[dict], img: Path, prefix: str = "roles") -> dict:
     # Fig. 9: per role
     roles = ("base_station", "repeater", "local_leader", "explorer")
     fig, axes = plt.subplots(1, 4, figsize=(15, 4), dpi=100, sharey=True)
-    for ax, role in zip(axes, roles):
+    for ax, role in zip(axes, roles, strict=True):
         data = [[v for r in by[n] for v in r["cpu_s_by_role"].get(role, [])] or [np.nan] for n in ns]
         ax.boxplot(data, tick_labels=ns)
         ax.set_title(role, fontsize=9)

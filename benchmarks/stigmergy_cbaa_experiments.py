@@ -215,7 +215,7 @@ def _pool_map(fn, cases, jobs):
     if jobs <= 1:
         return [fn(*c) for c in cases]
     with ProcessPoolExecutor(jobs) as ex:
-        return list(ex.map(fn, *zip(*cases)))
+        return list(ex.map(fn, *zip(*cases, strict=True)))
 
 
 def stigmergy_experiment(quick: bool, jobs: int) -> list[dict]:
@@ -291,7 +291,7 @@ def plots(data: dict, img: Path) -> list[Path]:
     colors = plt.cm.viridis(np.linspace(0, 0.9, len(losses)))
 
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.4), dpi=110)
-    for p, col in zip(losses, colors):
+    for p, col in zip(losses, colors, strict=True):
         for ae, style in ((5, "-o"), (0, "--s")):
             xs, ys, fs, cf = [], [], [], []
             for n in sizes:

@@ -79,8 +79,9 @@ Maintaining the structure (add and remove)
 
 Robots sit at the centres of their circular regions (radius ``region``). Two
 robots are *structure neighbours* when they can talk from anywhere in their
-regions: distance between centres + 2·region <= range, and a safety ``margin``
-(fraction of that distance) is kept so that rounding never breaks a link.
+regions: distance between centres + 2·region <= range (the robot's radio range,
+``ctx.range``, from its robot group), and a safety ``margin`` (fraction of that
+distance) is kept so that rounding never breaks a link.
 
 * **R10 - positions** *(choice)*. Every ``hello`` ticks each robot broadcasts
   ``("HELLO", table)``: its table of (id, centre, stamp tick, neighbour ids) for
@@ -112,8 +113,10 @@ regions: distance between centres + 2·region <= range, and a safety ``margin``
 
 Units: ``at``, ``every``, ``hello``, ``silence`` are ticks; ``c`` is the per-hop
 bound in the clock's unit (ticks in lockstep, seconds in realtime); lengths in
-world units; ``speed`` in units per second, ``dt`` the seconds per tick (the
-run's ``dt``; robots cannot read it from the context).
+world units; ``speed`` in units per second. The radio range and the seconds per
+tick are the scenario's, read from the context (``ctx.range``, ``ctx.dt``), never
+parameters: the structure-neighbour distance and the default ``d_step`` and
+``d_more`` are derived from them in ``on_start``.
 """
 
 from __future__ import annotations
@@ -328,6 +331,14 @@ def join_position(centres: np.ndarray, reach: float, must=(), method: str = "heu
     return best, float(two_closest_sum(best[None], centres)[0]), closest
 
 
+def _region_problem(radio_range: float, region: float) -> str | None:
+    """Why regions of radius ``region`` cannot work with this radio range (two must fit in it), or None."""
+    if radio_range - 2 * region <= 0:
+        return (f"region = {region!r} too large for the radio range {radio_range!r}: two regions must fit in "
+                "range (range - 2·region > 0)")
+    return None
+
+
 # ================================================================ the behaviour
 class Biconnectivity(Behavior):
     """CR-FILL, DCR-FILL and the check of Ahmadi & Stone, with adding and removing robots."""
@@ -338,23 +349,24 @@ class Biconnectivity(Behavior):
 
     def __init__(self, N: int = 16, c: float = 1, initiator: int | list[int] | None = None, at: int | list[int] = 0,
                  every: int | None = None, budget: int = 20000, flood_verdict: bool = False,
-                 hello: int = 2, silence: int = 6, range: float = 1.0, region: float = 0.0,
-                 margin: float = 0.02, speed: float = 0.05, dt: float = 1.0, d_step: float | None = None,
-                 d_more: float | None = None, max_rounds: int = 10, joiner: bool = False,
+                 hello: int = 2, silence: int = 6, region: float = 0.0, margin: float = 0.02,
+                 speed: float = 0.05, d_step: float | None = None, d_more: float | None = None,
+                 max_rounds: int = 10, joiner: bool = False,
                  placement: str = "heuristic", leave: list | None = None, maintain: bool = True):
         self.N, self.c = int(N), float(c)
         ids = [] if initiator is None else ([initiator] if isinstance(initiator, int) else list(initiator))
         ats = at if isinstance(at, list) else [at] * len(ids)
-        self.start_at = dict(zip(ids, ats))  # initiator id -> tick of its first check
+        self.start_at = dict(zip(ids, ats, strict=True))  # initiator id -> tick of its first check
         self.every = every
         self.budget, self.flood_verdict = budget, flood_verdict
         self.hello, self.silence = hello, silence
-        self.range, self.region, self.margin = float(range), float(region), float(margin)
-        self.speed, self.dt = float(speed), float(dt)
-        self.reach = max(0.0, self.range - 2 * self.region)  # structure-neighbour distance between centres
-        self.safe = self.reach * (1 - self.margin)  # what placement and the leader's model use
-        self.d_step = d_step if d_step is not None else self.reach / 100
-        self.d_more = d_more if d_more is not None else self.reach / 20
+        self.region, self.margin, self.speed = float(region), float(margin), float(speed)
+        self.d_step_param, self.d_more_param = d_step, d_more
+        # derived from the robot's radio range (ctx.range) in on_start (_configure)
+        self.reach: float | None = None  # structure-neighbour distance between centres
+        self.safe: float | None = None  # what placement and the leader's model use
+        self.d_step: float | None = None
+        self.d_more: float | None = None
         self.max_rounds, self.joiner, self.placement, self.maintain = max_rounds, joiner, placement, maintain
         self.leave = {int(r): int(t) for r, t in (leave or [])}
         self.W = 3 * self.N * self.c  # the fills' wait (3Nc)
@@ -396,7 +408,13 @@ class Biconnectivity(Behavior):
 
     # ------------------------------------------------------------ parameters
     @staticmethod
-    def validate(params: dict) -> str | None:
+    def validate(params: dict, group: dict | None = None) -> str | None:
+        """Why ``params`` cannot run, or None.
+
+        ``group`` is the robot group as the scenario resolved it (its ``range`` is the robots' radio range):
+        two regions must fit in it.
+        """
+
         def is_int(v):
             return isinstance(v, int) and not isinstance(v, bool)
 
@@ -420,7 +438,7 @@ class Biconnectivity(Behavior):
                 return f"{key} = {params[key]!r} must be an integer >= 0"
         if params.get("every") is not None and (not is_int(params["every"]) or params["every"] < 1):
             return f"every = {params['every']!r} must be an integer >= 1 (ticks)"
-        for key in ("c", "range", "speed", "dt"):
+        for key in ("c", "speed"):
             if key in params and (not is_num(params[key]) or params[key] <= 0):
                 return f"{key} = {params[key]!r} must be a number > 0"
         for key in ("region", "margin"):
@@ -431,9 +449,11 @@ class Biconnectivity(Behavior):
         for key in ("d_step", "d_more"):
             if params.get(key) is not None and (not is_num(params[key]) or params[key] <= 0):
                 return f"{key} = {params[key]!r} must be a number > 0"
-        rng_, region = params.get("range", 1.0), params.get("region", 0.0)
-        if is_num(rng_) and is_num(region) and rng_ - 2 * region <= 0:
-            return f"region = {region!r} too large: two regions must fit in range (range - 2·region > 0)"
+        region = params.get("region", 0.0)
+        if group is not None and is_num(region):
+            problem = _region_problem(float(group["range"]), region)
+            if problem:
+                return problem
         if ini is not None and not (is_int(ini) or (isinstance(ini, list) and all(is_int(i) for i in ini))):
             return f"initiator = {ini!r} must be a robot id or a list of ids"
         if params.get("placement", "heuristic") not in ("heuristic", "min_intersection"):
@@ -447,9 +467,19 @@ class Biconnectivity(Behavior):
         return None
 
     # ------------------------------------------------------------ helpers
+    def _configure(self, ctx: Context) -> None:
+        """Derive the structure's distances from the robot's radio range (the scenario's, ``ctx.range``)."""
+        problem = _region_problem(ctx.range, self.region)
+        if problem:
+            raise ValueError(f"biconnectivity: {problem}")
+        self.reach = max(0.0, ctx.range - 2 * self.region)
+        self.safe = self.reach * (1 - self.margin)
+        self.d_step = self.d_step_param if self.d_step_param is not None else self.reach / 100
+        self.d_more = self.d_more_param if self.d_more_param is not None else self.reach / 20
+
     def _tick_len(self, ctx: Context) -> float:
         """Clock units per tick: 1 in lockstep (c in ticks), dt seconds in realtime."""
-        return 1.0 if ctx.clock == "lockstep" else self.dt
+        return 1.0 if ctx.clock == "lockstep" else ctx.dt
 
     def _stats(self, p: int) -> dict:
         st = self.periods.get(p)
@@ -660,6 +690,7 @@ class Biconnectivity(Behavior):
 
     # ------------------------------------------------------------ hooks
     def on_start(self, ctx: Context) -> None:
+        self._configure(ctx)
         if ctx.id in self.start_at:
             self.next_check = self.start_at[ctx.id]
         if self.joiner:
@@ -797,7 +828,7 @@ class Biconnectivity(Behavior):
         c_ticks = math.ceil(self.N * self.c / self._tick_len(ctx) - 1e-9)
         start = ctx.tick + c_ticks + 1
         body = [ctx.id, lead["rounds"], lead["removed"], lead["pos"], d, start, self.speed]
-        move_ticks = math.ceil(d / (self.speed * self.dt) - 1e-9) if d > 0 else 0
+        move_ticks = math.ceil(d / (self.speed * ctx.dt) - 1e-9) if d > 0 else 0
         lead["check_at"] = start + move_ticks + 1
         self._accept_move(ctx, body)
 
@@ -842,10 +873,10 @@ class Biconnectivity(Behavior):
             m["x0"] = np.array(ctx.position[:2], dtype=float)
             m["dist0"] = float(np.linalg.norm(m["x0"] - m["pos"]))
             m["goal"] = min(m["d"], m["dist0"])
-        s = min((ctx.tick - m["start"] + 1) * m["speed"] * self.dt, m["goal"])
+        s = min((ctx.tick - m["start"] + 1) * m["speed"] * ctx.dt, m["goal"])
         target = prox(m["x0"], m["pos"], s)
         here = np.array(ctx.position[:2], dtype=float)
-        ctx.move(((target - here) / self.dt).tolist())
+        ctx.move(((target - here) / ctx.dt).tolist())
         if s >= m["goal"]:
             m["arrived"] = True
 
@@ -880,8 +911,8 @@ class Biconnectivity(Behavior):
         if dist < 1e-5:  # poses come rounded to 1e-6
             ctx.move([0.0, 0.0])
             return True
-        step = min(dist, self.speed * self.dt)
-        ctx.move((delta / dist * step / self.dt).tolist())
+        step = min(dist, self.speed * ctx.dt)
+        ctx.move((delta / dist * step / ctx.dt).tolist())
         return False
 
     def _joiner_tick(self, ctx: Context) -> None:
@@ -1062,8 +1093,10 @@ def _tick_len(result: Result) -> float:
 
 
 def complete_periods(rep: dict, result: Result) -> set[int]:
-    """The periods of one robot's report whose fill ran its full 3Nc, neither cut short by a newer period
-    nor by the end of the run."""
+    """The periods of one robot's report whose fill ran its full 3Nc.
+
+    That is, periods cut short neither by a newer period nor by the end of the run.
+    """
     unit = _tick_len(result)
     last = result.trace[-1]["t"]
     wait = rep["bounds"]["fill"] / unit
@@ -1227,9 +1260,7 @@ def oracle_best_join(centres: np.ndarray, reach: float, spacing: float) -> float
 def join(result: Result, ratio: float = 0.95, spacing: float | None = None) -> list[Outcome]:
     """A joiner ends with >= 2 neighbours, the swarm stays biconnected, value >= ratio x the grid optimum."""
     params = _behaviour_params(result)
-    rng_ = float(params.get("range", 1.0))
-    reach = rng_ - 2 * float(params.get("region", 0.0))
-    spacing = spacing or reach / 400
+    region = float(params.get("region", 0.0))
     last = result.trace[-1]["t"]
     g = result.graph_at(last)
     rec = result.record(last)
@@ -1240,7 +1271,8 @@ def join(result: Result, ratio: float = 0.95, spacing: float | None = None) -> l
         if not j:
             continue
         others = np.array([p for r, p in pos.items() if r != rid])
-        best = oracle_best_join(others, reach, spacing)
+        reach = float(result.robots[rid]["range"]) - 2 * region  # the joiner's radio range, from its group
+        best = oracle_best_join(others, reach, spacing or reach / 400)
         value = float(two_closest_sum(pos[rid][None], others)[0])
         deg = g.degree(rid) if rid in g else 0
         outs.append(Outcome("biconnectivity.join", deg >= 2 and paper_biconnected(g) and value >= ratio * best,
@@ -1268,8 +1300,10 @@ def _bicon_case(name: str, positions: list, *, initiator: int = 0, clock: str = 
 
 
 def suite(mode: str) -> list[Case]:
-    """Biconnected and not: rings, ladders, trees, a bow tie, two components; both clocks. Graphs stay small:
-    the relay enumerates simple paths."""
+    """Biconnected and not: rings, ladders, trees, a bow tie, two components; both clocks.
+
+    Graphs stay small: the relay enumerates simple paths.
+    """
     bowtie = [[0.0, 0.0], [0.8, 0.4], [0.0, 0.8], [1.6, 0.0], [1.6, 0.8]]  # two triangles sharing robot 1
     two_rings = ring(5) + [[x + 20.0, y] for x, y in ring(5)]
     cases = [

@@ -328,7 +328,7 @@ class CBAA(Behavior):
         if not all(_is_num(v) and v >= 0 for v in y) or not all(w is None or (_is_int(w) and w >= 0) for w in z):
             self.dropped["malformed"] += 1
             return None
-        if any((w is None) != (v == 0) for v, w in zip(y, z)) or (t is not None and z[t] != frame.src):
+        if any((w is None) != (v == 0) for v, w in zip(y, z, strict=True)) or (t is not None and z[t] != frame.src):
             self.dropped["malformed"] += 1
             return None
         s: dict[int, float] = {}

@@ -189,7 +189,7 @@ def _flood_frames(result: Result) -> tuple[dict, list]:
     sent = {}
     deliveries = []
     for rec in result.trace:
-        for src, seq, kind, dst, size in rec.get("sent", []):
+        for src, seq, kind, _dst, _size in rec.get("sent", []):
             if kind == KIND:
                 sent[(src, seq)] = rec["t"]
     for rec in result.trace:

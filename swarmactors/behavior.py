@@ -7,7 +7,15 @@ sensed, what it received, and the actuators below. It never touches Zenoh, the
 world, or another robot.
 
 Time: ``ctx.now`` is in the clock's unit, ticks in lockstep and seconds since
-the run started in realtime; ``ctx.tick`` is the world's tick in both.
+the run started in realtime; ``ctx.tick`` is the world's tick in both. Both are
+read-only: only the robot's host advances them.
+
+What a robot knows of the world: its own pose, the robots it senses each tick,
+the frames it receives, the objects it is told about (an object's ``known_by``),
+and its own parameters from the scenario (``ctx.dt``, ``ctx.range``,
+``ctx.sensing``, ``ctx.clock``). Nothing else: no other robot's state and no
+shared object (each robot has its own context, its own ``objects`` and its own
+copy of every frame body it receives).
 """
 
 from __future__ import annotations
@@ -18,6 +26,8 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
+
+from transport.messages import FrameOut
 
 
 @dataclass(frozen=True, slots=True)
@@ -58,6 +68,13 @@ class Behavior:
     def on_frame(self, ctx: Context, frame: Frame) -> Any:
         """Called for each received frame of a kind this behaviour handles."""
 
+    def on_batch(self, ctx: Context) -> Any:
+        """Called once after each batch of frames delivered together.
+
+        Realtime: after every delivery batch, so a relay goes out at once rather than at the next tick.
+        Lockstep: after the tick's frames, before due timers and ``on_tick``.
+        """
+
     def on_tick(self, ctx: Context, sensed: list[Sensed]) -> Any:
         """Called once per tick, after the tick's frames were handled."""
 
@@ -74,22 +91,62 @@ class Behavior:
 class Context:
     """What a behaviour may see and do. One per robot."""
 
-    def __init__(self, robot_id: int, rng: np.random.Generator, clock: str):
+    def __init__(self, robot_id: int, rng: np.random.Generator, clock: str, *, dt: float = 1.0,
+                 radio_range: float = 1.0, sensing_range: float = 1.0):
         self.id = robot_id
         self.rng = rng
-        self.clock = clock
-        self.now: float = 0
-        self.tick = 0
+        self._clock = clock
+        self._dt = float(dt)
+        self._range = float(radio_range)
+        self._sensing = float(sensing_range)
+        self._now: float = 0
+        self._tick = 0
         self.pose = np.zeros(3)  # x, y, heading (x, y, z, heading in 3-D)
-        self.objects: dict[str, list[float]] = {}
-        self._outbox: list[list] = []
+        self.objects: dict[str, list[float]] = {}  # the objects this robot knows (its own dict)
+        self._outbox: list[FrameOut] = []
         self._velocity: list[float] | None = None
         self._status: dict[str, Any] = {}
         self._timers: list[tuple[float, int, Callable[[], Any]]] = []
         self._timer_seq = 0
+        self._on_timer: Callable[[float, Callable[[], Any]], None] | None = None  # realtime: schedule at once
         self._seq = 0
         self.logs: list[str] = []
         self._encode: Callable[[Any], bytes] | None = None
+
+    @property
+    def now(self) -> float:
+        """The clock's time: ticks in lockstep, seconds since the run started in realtime."""
+        return self._now
+
+    @property
+    def tick(self) -> int:
+        """The world's current tick."""
+        return self._tick
+
+    @property
+    def clock(self) -> str:
+        """``"lockstep"`` or ``"realtime"`` (the scenario's ``run.clock``)."""
+        return self._clock
+
+    @property
+    def dt(self) -> float:
+        """The length of a tick in seconds (the scenario's ``run.dt``)."""
+        return self._dt
+
+    @property
+    def range(self) -> float:
+        """This robot's radio range (its group's ``range``)."""
+        return self._range
+
+    @property
+    def sensing(self) -> float:
+        """This robot's sensing range (its group's ``sensing``)."""
+        return self._sensing
+
+    def _set_time(self, tick: int, now: float) -> None:
+        """The host advances the robot's time (the only writer)."""
+        self._tick = tick
+        self._now = now
 
     @property
     def position(self) -> np.ndarray:
@@ -97,7 +154,7 @@ class Context:
 
     def broadcast(self, kind: str, body: Any = None, exclude: tuple[int, ...] | list[int] = ()) -> None:
         """Radio ``body`` to every robot in range, except the ids in ``exclude``."""
-        self._queue(None, kind, body, list(exclude))
+        self._queue(None, kind, body, [int(x) for x in exclude])
 
     def send(self, dst: int, kind: str, body: Any = None) -> None:
         """Radio ``body`` to robot ``dst``; delivered only if ``dst`` is in range."""
@@ -105,14 +162,20 @@ class Context:
 
     def _queue(self, dst: int | None, kind: str, body: Any, exclude: list[int]) -> None:
         self._seq += 1
-        self._outbox.append([dst, kind, self._seq, self._encode(body), exclude])
+        self._outbox.append(FrameOut(dst, kind, self._seq, self._encode(body), exclude))
 
     def move(self, velocity) -> None:
         """Command a velocity (length units per second), kept until changed."""
         self._velocity = [float(v) for v in velocity]
 
     def after(self, delay: float, fn: Callable[[], Any]) -> None:
-        """Call ``fn()`` once ``delay`` clock units from now (at a tick boundary in lockstep)."""
+        """Call ``fn()`` once ``delay`` clock units from now.
+
+        Lockstep: at the first tick boundary at or after the due time. Realtime: at the due time itself.
+        """
+        if self._on_timer is not None:
+            self._on_timer(float(delay), fn)
+            return
         self._timer_seq += 1
         self._timers.append((self.now + delay, self._timer_seq, fn))
 

@@ -227,7 +227,7 @@ def convergence(records: list[dict], history: dict[int, dict], field: str, path:
     ticks = [records[i]["t"] for i in cols]
     final = {rid: f[field][-1][1] for rid, f in history.items() if field in f}
     have, settled = [], []
-    for i, t in zip(cols, ticks):
+    for i, t in zip(cols, ticks, strict=True):
         alive = [row[0] for row in records[i].get("pos", [])]
         n = max(len(alive), 1)
         vals = {rid: _value_at(history.get(rid, {}).get(field, []), t) for rid in alive}

@@ -18,6 +18,7 @@ from pathlib import Path
 from rich.console import Console
 
 from swarmactors import scenario as scenario_mod
+from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME
 from swarmactors.launcher import new_run_id, run_world, serve_host
 from swarmactors.plugins import BEHAVIORS, resolve
 from swarmactors.progress import RunProgress, summary_table
@@ -29,7 +30,6 @@ INSECURE_WARNING = (
     "as a robot host and read the swarm's traffic (see docs/security.md)"
 )
 
-EXIT_OK, EXIT_CHECK, EXIT_INPUT, EXIT_RUNTIME, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
 
 class UsageError(Exception):
@@ -260,8 +260,8 @@ def _check(args, err: Console) -> int:
     try:
         total = len([c for _, c in cf.select(args.family, args.mode)
                      if args.clock is None or c.scenario.get("run", {}).get("clock", "lockstep") == args.clock])
-        with Progress(TextColumn("[bold]conformance"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.description}"),
-                      TimeElapsedColumn(), console=err) as bar:
+        with Progress(TextColumn("[bold]conformance"), BarColumn(), MofNCompleteColumn(),
+                      TextColumn("{task.description}"), TimeElapsedColumn(), console=err) as bar:
             task = bar.add_task("", total=total)
 
             def tick(r) -> None:

@@ -30,7 +30,6 @@ from typing import Any, Callable
 import numpy as np
 import tomli_w
 
-from swarmactors.checks import run_checks
 from swarmactors.plugins import BEHAVIORS, PluginError, available, resolve
 from swarmactors.scenario import resolve_scenario, to_raw
 from swarmactors.trace import canonical, read_trace
@@ -78,7 +77,7 @@ class ContractError(ValueError):
 
 # ------------------------------------------------------------------ graph families
 def ring(n: int, spacing: float = 0.8) -> list[list[float]]:
-    """n robots on a circle, neighbours ``spacing`` apart (a cycle when range >= spacing)."""
+    """A ring of n robots on a circle, neighbours ``spacing`` apart (a cycle when range >= spacing)."""
     radius = spacing / (2 * math.sin(math.pi / n))
     return [[radius * math.cos(2 * math.pi * i / n), radius * math.sin(2 * math.pi * i / n)] for i in range(n)]
 
@@ -106,7 +105,7 @@ def comb(n: int, spacing: float = 0.8) -> list[list[float]]:
 
 
 def random_geometric(n: int, seed: int, degree: float = 4.0, radius: float = 1.0) -> list[list[float]]:
-    """n robots uniform in a square sized for about ``degree`` neighbours within ``radius``, connected."""
+    """A connected random geometric graph: n robots uniform in a square, ~``degree`` neighbours in ``radius``."""
     from swarmactors.scenario import undirected_graph
 
     side = math.sqrt(n * math.pi * radius**2 / degree)
@@ -228,7 +227,7 @@ def first_difference(a: Path | None, b: Path | None) -> int | None:
         return None
     _, ra, _ = read_trace(a)
     _, rb, _ = read_trace(b)
-    for x, y in zip(ra, rb):
+    for x, y in zip(ra, rb, strict=False):
         if canonical(x) != canonical(y):
             return x["t"]
     return min(len(ra), len(rb)) if len(ra) != len(rb) else None

@@ -26,7 +26,23 @@ import numpy as np
 
 from swarmactors.behavior import Behavior, Context, Frame, Sensed
 from swarmactors.plugins import BEHAVIORS, resolve
+from swarmactors.tasks import TaskSet
 from transport import Keys, Link, MalformedMessage, pack, seal, unpack
+from transport.messages import (
+    Deliveries,
+    Downlink,
+    FrameIn,
+    Inputs,
+    JoinReply,
+    JoinRequest,
+    RobotDescr,
+    RobotOut,
+    RunInfo,
+    Stop,
+    Uplink,
+    decode,
+    encode,
+)
 
 log = logging.getLogger(__name__)
 
@@ -34,11 +50,12 @@ log = logging.getLogger(__name__)
 class Robot:
     """One robot actor: its behaviours, its context, and what it will send."""
 
-    def __init__(self, descr: dict, seed: int, clock: str):
-        self.id = int(descr["id"])
-        self.ctx = Context(self.id, np.random.default_rng([seed, self.id]), clock)
+    def __init__(self, descr: RobotDescr, run: RunInfo):
+        self.id = descr.id
+        self.ctx = Context(self.id, np.random.default_rng([run.seed, self.id]), run.clock, dt=run.dt,
+                           radio_range=descr.range, sensing_range=descr.sensing)
         self.ctx._encode = pack
-        self.ctx.pose = np.array(descr["pose"], dtype=float)
+        self.ctx.pose = np.array(descr.pose, dtype=float)
         self.behaviors: list[Behavior] = []
         self.report_names: list[str] = []  # the name each behaviour's report goes under
         self.started = False
@@ -48,7 +65,7 @@ class Robot:
         self.sent_status: dict[str, Any] = {}
         self.bad_bodies = 0
         try:
-            for spec in descr.get("behaviors", []):
+            for spec in descr.behaviors:
                 params = {k: v for k, v in spec.items() if k not in ("use", "as")}
                 b = resolve(BEHAVIORS, spec["use"])(**params)
                 self.behaviors.append(b)
@@ -57,6 +74,7 @@ class Robot:
             self.fail(exc)
         self._catch_all = [b.on_frame for b in self.behaviors if not b.kinds]
         self._by_kind: dict[str, list] = {}
+        self._batch_hooks = [b.on_batch for b in self.behaviors if type(b).on_batch is not Behavior.on_batch]
 
     def handlers(self, kind: str) -> list:
         """The on_frame hooks for ``kind``: behaviours that own it, or own no kind at all."""
@@ -67,24 +85,38 @@ class Robot:
         return hs
 
     # -- one step --------------------------------------------------------
-    def calls(self, frames: list[Frame], sensed) -> Iterator[tuple]:
-        """The hook calls of one step, in order: start, frames (by src, seq), due timers, tick."""
-        ctx = self.ctx
+    def start_calls(self) -> Iterator[tuple]:
+        """``on_start`` of every behaviour, once, before any other hook."""
         if not self.started:
             self.started = True
             for b in self.behaviors:
-                yield b.on_start, (ctx,)
+                yield b.on_start, (self.ctx,)
+
+    def calls(self, frames: list[Frame], sensed) -> Iterator[tuple]:
+        """The hook calls of one lockstep step, in order: start, frames (by src, seq), batch, due timers, tick."""
+        ctx = self.ctx
+        yield from self.start_calls()
         for frame in frames:
             for h in self.handlers(frame.kind):
                 yield h, (ctx, frame)
+        if frames:
+            yield from self.batch_calls()
         for fn in self.due_timers():
             yield fn, ()
         for b in self.behaviors:
             yield b.on_tick, (ctx, sensed)
 
-    def frame_calls(self, frame: Frame) -> Iterator[tuple]:
-        for h in self.handlers(frame.kind):
-            yield h, (self.ctx, frame)
+    def frame_calls(self, frames: list[Frame]) -> Iterator[tuple]:
+        """Realtime: the hook calls for one delivery batch: each frame, then ``on_batch`` (``on_start`` first)."""
+        yield from self.start_calls()
+        for frame in frames:
+            for h in self.handlers(frame.kind):
+                yield h, (self.ctx, frame)
+        yield from self.batch_calls()
+
+    def batch_calls(self) -> Iterator[tuple]:
+        for b in self._batch_hooks:
+            yield b, (self.ctx,)
 
     def due_timers(self) -> list:
         timers = self.ctx._timers
@@ -95,8 +127,8 @@ class Robot:
         self.ctx._timers = [t for t in timers if t[0] > now]
         return [fn for _, _, fn in due]
 
-    def outputs(self) -> list:
-        """``[id, velocity, frames, status changes, error]`` and reset the outbox."""
+    def outputs(self) -> RobotOut:
+        """This robot's outputs since the last call (velocity, frames, status changes, error); resets the outbox."""
         ctx = self.ctx
         frames, ctx._outbox = ctx._outbox, []
         vel, ctx._velocity = ctx._velocity, None
@@ -108,7 +140,7 @@ class Robot:
                 sent.update(changed)
         if self.error:
             self.error_sent = True
-        return [self.id, vel, frames, changed, self.error]
+        return RobotOut(self.id, vel, frames, changed, self.error)
 
     def fail(self, exc: BaseException | str) -> None:
         if isinstance(exc, BaseException):
@@ -122,7 +154,7 @@ class Robot:
 
     def report(self) -> dict:
         rep: dict[str, Any] = {}
-        for name, b in zip(self.report_names, self.behaviors):
+        for name, b in zip(self.report_names, self.behaviors, strict=True):
             try:
                 rep[name] = b.report()
             except Exception as exc:  # a broken report must not lose the others
@@ -187,15 +219,40 @@ class SensedView(Sequence):
         return np.array(self._flat, dtype=float).reshape(len(self._ids), self._dims)
 
 
-def decode_table(robots: dict[int, Robot], table: list) -> list[Frame | None]:
-    """Decode each frame body of a downlink once; None for an undecodable body."""
-    out: list[Frame | None] = []
-    for src, kind, seq, body, sent in table:
-        try:
-            out.append(Frame(src, kind, unpack(body, what="frame body"), seq, sent))
-        except MalformedMessage:
-            out.append(None)
-    return out
+def decode_body(f: FrameIn) -> Frame | None:
+    """A received frame with its body decoded; None for an undecodable body."""
+    try:
+        return Frame(f.src, f.kind, unpack(f.body, what="frame body"), f.seq, f.sent)
+    except MalformedMessage:
+        return None
+
+
+def _unless_timeout(exc: BaseException) -> None:
+    if not isinstance(exc, TimeoutError):
+        log.error("robot task failed: %r", exc, exc_info=exc)
+
+
+class FrameTable:
+    """A downlink's frames, handed out so that robots share nothing.
+
+    A body is decoded once; an immutable one (a number, string, bytes, None) is shared by every receiver,
+    a list or map is decoded again for each further receiver, so no robot sees another's changes.
+    """
+
+    __slots__ = ("_frames", "_given")
+
+    def __init__(self, frames: list[FrameIn]):
+        self._frames = frames
+        self._given: dict[int, Frame | None] = {}
+
+    def frame(self, k: int) -> Frame | None:
+        if k not in self._given:
+            frame = self._given[k] = decode_body(self._frames[k])
+            return frame
+        frame = self._given[k]
+        if frame is None or not isinstance(frame.body, (list, dict)):
+            return frame
+        return decode_body(self._frames[k])
 
 
 class RobotHost:
@@ -208,11 +265,14 @@ class RobotHost:
         self.robots: dict[int, Robot] = {}
         self.name = ""
         self.key = b""
-        self.run_info: dict = {}
+        self.run_info: RunInfo | None = None
         self.tick = -1
 
-    async def join(self, timeout: float = 60.0) -> None:
-        req = pack({"count": self.count})
+    async def join(
+        self,
+        timeout: float = 60.0,  # noqa: ASYNC109 — a deadline for retries; each join query keeps its own 5 s timeout
+    ) -> None:
+        req = encode(JoinRequest(self.count))
         deadline = time.monotonic() + timeout
         while True:
             try:
@@ -222,94 +282,97 @@ class RobotHost:
                 if time.monotonic() > deadline:
                     raise RuntimeError(f"could not join {self.keys.join}: {exc}") from None
                 await asyncio.sleep(0.2)
-        info = unpack(reply, what="join reply")
-        self.name = info["host"]
-        self.key = info["key"]
-        self.run_info = info["run"]
-        for descr in info["robots"]:
+        info = decode(reply, JoinReply, what="join reply")
+        self.name = info.host
+        self.key = info.key
+        self.run_info = info.run
+        for descr in info.robots:
             self._adopt(descr)
         self.link.declare_token(self.keys.alive(self.name))
 
-    def _adopt(self, descr: dict) -> None:
-        robot = Robot(descr, self.run_info["seed"], self.run_info["clock"])
+    def _adopt(self, descr: RobotDescr) -> None:
+        robot = Robot(descr, self.run_info)
         self.robots[robot.id] = robot
 
     async def run(self) -> None:
         if not self.name:
             await self.join()
-        if self.run_info["clock"] == "lockstep":
+        if self.run_info.clock == "lockstep":
             await self._run_lockstep()
         else:
             await self._run_realtime()
 
-    # -- inputs common to both clocks -----------------------------------
-    def _uplink(self, msg: dict) -> bytes:
+    # -- common to both clocks -----------------------------------
+    def _uplink(self, tick: int, rows: list[RobotOut] = (), reports: dict | None = None) -> bytes:
         """An uplink message, sealed with this host's key (transport.auth)."""
-        return seal(self.key, pack(msg))
+        return seal(self.key, encode(Uplink(self.name, tick, list(rows), reports)))
 
-    def _take_membership(self, msg: dict) -> None:
-        for rid in msg.get("dead", ()):
+    def _take_membership(self, msg: Inputs) -> None:
+        for rid in msg.dead:
             robot = self.robots.get(rid)
             if robot is not None:
                 robot.alive = False
-        for descr in msg.get("new", ()):
+        for descr in msg.new:
             self._adopt(descr)
 
-    def _set_inputs(self, robot: Robot, pose: list, now: float, objects: dict) -> None:
+    def _set_inputs(self, robot: Robot, pose: list, now: float, objects: dict, known: list[str] | None) -> None:
         ctx = robot.ctx
         ctx.pose = np.array(pose, dtype=float)
-        ctx.now = now
-        ctx.tick = self.tick
-        ctx.objects = objects
+        ctx._set_time(self.tick, now)
+        # each robot its own dict, with the objects it knows
+        ctx.objects = {name: list(pos) for name, pos in objects.items() if known is None or name in known}
+
+    async def _ask(self, uplink: str, data: bytes, timeout: float) -> Downlink:  # noqa: ASYNC109 — a Zenoh query's own timeout
+        return decode(await self.link.query(uplink, data, timeout=timeout), Downlink, what="downlink")
 
     # -- lockstep --------------------------------------------------------------
     async def _run_lockstep(self) -> None:
         uplink = self.keys.up(self.name)
         timeout = 24 * 3600.0  # the world's watchdog, not this query, bounds a step
-        msg = unpack(await self.link.query(uplink, self._uplink({"h": self.name, "t": -1, "r": []}), timeout=timeout))
-        while not (msg.get("stop") or msg.get("bye")):
-            self.tick = msg["t"]
+        msg = await self._ask(uplink, self._uplink(-1), timeout)
+        while isinstance(msg, Inputs):
+            self.tick = msg.tick
             out = await self._step_lockstep(msg)
-            msg = unpack(await self.link.query(uplink, self._uplink({"h": self.name, "t": self.tick, "r": out}),
-                                               timeout=timeout))
-        if not (msg.get("gone") or msg.get("bye")):
+            msg = await self._ask(uplink, self._uplink(self.tick, out), timeout)
+        if isinstance(msg, Stop) and not (msg.gone or msg.bye):
             await self._send_reports(uplink)
 
-    async def _step_lockstep(self, msg: dict) -> list:
+    async def _step_lockstep(self, msg: Inputs) -> list[RobotOut]:
         self._take_membership(msg)
-        now, objects = msg["now"], msg.get("objects", {})
-        frames = decode_table(self.robots, msg.get("frames", ()))
-        bad = {k for k, f in enumerate(frames) if f is None}
-        dims = len(msg["in"][0][1]) - 1 if msg["in"] else 2
+        now, objects = msg.now, msg.objects
+        frames = FrameTable(msg.frames)
+        dims = len(msg.robots[0].pose) - 1 if msg.robots else 2
         pending: dict[asyncio.Task, Robot] = {}
         stepped: list[Robot] = []
-        for rid, pose, (ids, flat), refs in msg["in"]:
-            robot = self.robots.get(rid)
+        for row in msg.robots:
+            robot = self.robots.get(row.id)
             if robot is None or not robot.alive:
                 if robot is not None and robot.error and not robot.error_sent:
                     stepped.append(robot)  # tell the world once why this robot is gone
                 continue
-            self._set_inputs(robot, pose, now, objects)
-            inbox = [frames[k] for k in refs]
-            if bad and not bad.isdisjoint(refs):
-                robot.bad_bodies += sum(1 for f in inbox if f is None)
+            self._set_inputs(robot, row.pose, now, objects, row.objects)
+            inbox = [frames.frame(k) for k in row.inbox]
+            if None in inbox:
+                robot.bad_bodies += inbox.count(None)
                 inbox = [f for f in inbox if f is not None]
+            ids, flat = row.sensed
             rest = run_calls(robot, robot.calls(inbox, SensedView(ids, flat, dims)))
             if rest is not None:
                 pending[asyncio.ensure_future(rest)] = robot
             stepped.append(robot)
         if pending:
-            done, late = await asyncio.wait(pending, timeout=self.run_info["watchdog_s"])
+            _, late = await asyncio.wait(pending, timeout=self.run_info.watchdog_s)
             for task in late:
                 task.cancel()
-                pending[task].fail(f"watchdog: step of tick {self.tick} exceeded {self.run_info['watchdog_s']} s")
+                pending[task].fail(f"watchdog: step of tick {self.tick} exceeded {self.run_info.watchdog_s} s")
+            if late:
+                await asyncio.wait(late, timeout=1.0)  # the tasks this host started end with the step
         return [robot.outputs() for robot in stepped]
 
     async def _send_reports(self, uplink: str) -> None:
         reports = {rid: r.report() for rid, r in self.robots.items()}
         try:
-            await self.link.query(uplink, self._uplink({"h": self.name, "t": self.tick + 1, "r": [], "rep": reports}),
-                                  timeout=30.0)
+            await self.link.query(uplink, self._uplink(self.tick + 1, (), reports), timeout=30.0)
         except Exception as exc:
             log.warning("final report not acknowledged: %s", exc)
 
@@ -318,55 +381,78 @@ class RobotHost:
         uplink = self.keys.up(self.name)
         self._stopped = asyncio.Event()
         self._epoch: float | None = None
-        self._tasks: set[asyncio.Task] = set()
+        # a hook's own errors crash its robot (run_calls); what reaches the set is the watchdog's timeout
+        self._tasks = TaskSet(f"host {self.name}", on_error=_unless_timeout)
+        self._loop = asyncio.get_running_loop()
+        for robot in self.robots.values():
+            self._realtime_timers(robot)
         self.link.subscribe(self.keys.down(self.name), self._on_down)
-        await self.link.query(uplink, self._uplink({"h": self.name, "t": -1, "r": []}), timeout=30.0)
+        await self.link.query(uplink, self._uplink(-1), timeout=30.0)
         # The epoch arrives with every tick's inputs; the registration reply predates the start.
         await self._stopped.wait()
-        for task in list(self._tasks):
-            task.cancel()
+        await self._tasks.close()
         await self._send_reports(uplink)
+
+    def _realtime_timers(self, robot: Robot) -> None:
+        """Realtime: a behaviour's timer fires at its due time, on this host's event loop."""
+
+        def schedule(delay: float, fn) -> None:
+            def fire() -> None:
+                if robot.alive and not self._stopped.is_set():
+                    robot.ctx._set_time(self.tick, self._rt_now())
+                    self._rt_run(robot, iter([(fn, ())]))
+                    self._rt_flush([robot])
+
+            self._loop.call_later(max(0.0, delay), fire)
+
+        robot.ctx._on_timer = schedule
 
     def _rt_now(self) -> float:
         return time.time() - (self._epoch or time.time())
 
     def _on_down(self, key: str, payload: bytes) -> None:
         try:
-            msg = unpack(payload, what="downlink")
+            msg = decode(payload, Downlink, what="downlink")
         except MalformedMessage as exc:
             log.warning("%s", exc)
             return
-        if msg.get("stop"):
+        if isinstance(msg, Stop):
             self._stopped.set()
             return
         touched: list[Robot] = []
-        if "d" in msg:
+        if isinstance(msg, Deliveries):
             now = self._rt_now()
-            for rid, src, kind, seq, body, sent in msg["d"]:
-                robot = self.robots.get(rid)
+            batches: dict[int, list[Frame]] = {}
+            for d in msg.items:
+                robot = self.robots.get(d.dst)
                 if robot is None or not robot.alive:
                     continue
-                (frame,) = decode_table(self.robots, [[src, kind, seq, body, sent]])
+                frame = decode_body(FrameIn(d.src, d.kind, d.seq, d.body, d.sent))
                 if frame is None:
                     robot.bad_bodies += 1
                     continue
-                robot.ctx.now = now
-                self._rt_run(robot, robot.frame_calls(frame))
+                batches.setdefault(d.dst, []).append(frame)
+            for rid, frames in batches.items():
+                robot = self.robots[rid]
+                robot.ctx._set_time(self.tick, now)
+                self._rt_run(robot, robot.frame_calls(frames))
                 touched.append(robot)
-        if "in" in msg:
-            if "epoch" in msg:
-                self._epoch = msg["epoch"]
-            self.tick = msg["t"]
+        elif isinstance(msg, Inputs):
+            if msg.epoch is not None:
+                self._epoch = msg.epoch
+            self.tick = msg.tick
             self._take_membership(msg)
-            objects = msg.get("objects", {})
-            for rid, pose, (ids, flat), _ in msg["in"]:
-                robot = self.robots.get(rid)
+            for descr in msg.new:
+                self._realtime_timers(self.robots[descr.id])
+            for row in msg.robots:
+                robot = self.robots.get(row.id)
                 if robot is None or not robot.alive:
                     if robot is not None and robot.error and not robot.error_sent:
                         touched.append(robot)
                     continue
-                self._set_inputs(robot, pose, self._rt_now(), objects)
-                self._rt_run(robot, robot.calls([], SensedView(ids, flat, len(pose) - 1)))
+                self._set_inputs(robot, row.pose, self._rt_now(), msg.objects, row.objects)
+                ids, flat = row.sensed
+                self._rt_run(robot, robot.calls([], SensedView(ids, flat, len(row.pose) - 1)))
                 touched.append(robot)
         self._rt_flush(touched)
 
@@ -374,19 +460,17 @@ class RobotHost:
         rest = run_calls(robot, calls)
         if rest is None:
             return
-        task = asyncio.ensure_future(asyncio.wait_for(rest, self.run_info["watchdog_s"]))
-        self._tasks.add(task)
+        task = self._tasks.spawn(asyncio.wait_for(rest, self.run_info.watchdog_s))
 
         def done(t: asyncio.Task) -> None:
-            self._tasks.discard(t)
             if not t.cancelled() and isinstance(t.exception(), TimeoutError):
-                robot.fail(f"watchdog: a hook exceeded {self.run_info['watchdog_s']} s")
+                robot.fail(f"watchdog: a hook exceeded {self.run_info.watchdog_s} s")
             self._rt_flush([robot])
 
         task.add_done_callback(done)
 
     def _rt_flush(self, robots: list[Robot]) -> None:
         rows = [r.outputs() for r in dict.fromkeys(robots)]
-        rows = [row for row in rows if row[1] is not None or row[2] or row[3] or row[4]]
+        rows = [row for row in rows if row.velocity is not None or row.frames or row.status or row.error]
         if rows:
-            self.link.publish(self.keys.up(self.name), self._uplink({"h": self.name, "t": self.tick, "r": rows}))
+            self.link.publish(self.keys.up(self.name), self._uplink(self.tick, rows))

@@ -29,7 +29,7 @@ def plot_run(result: Result, path: Path, field: str | None = None, tick: int | N
     if g is not None:
         for a, b in g.edges:
             if a in pos and b in pos:
-                ax.plot(*zip(pos[a], pos[b]), color="0.8", lw=0.8, zorder=1)
+                ax.plot(*zip(pos[a], pos[b], strict=True), color="0.8", lw=0.8, zorder=1)
     values = {rid: robots[rid].get("status", {}).get(field) for rid in pos} if field else {}
     have = [rid for rid in pos if values.get(rid) is not None]
     lack = [rid for rid in pos if values.get(rid) is None]

@@ -20,7 +20,9 @@ class RunProgress:
             TextColumn("[bold]{task.description}"),
             BarColumn(),
             MofNCompleteColumn(),
-            TextColumn("frames {task.fields[frames]}  delivered {task.fields[delivered]}  dropped {task.fields[dropped]}"),
+            TextColumn(
+                "frames {task.fields[frames]}  delivered {task.fields[delivered]}  dropped {task.fields[dropped]}"
+            ),
             TimeElapsedColumn(),
             console=self.console,
             disable=quiet,
@@ -51,7 +53,8 @@ def summary_table(result: dict, out_dir) -> Table:
     w = result["world"]
     robots = result["robots"]
     alive = sum(1 for r in robots.values() if r["alive"])
-    t = Table(title=f"{result['scenario']['run']['name']} ({result['clock']}, seed {result['seed']})", show_header=False)
+    title = f"{result['scenario']['run']['name']} ({result['clock']}, seed {result['seed']})"
+    t = Table(title=title, show_header=False)
     t.add_column(style="bold")
     t.add_column()
     t.add_row("ticks", f"{result['ticks']} in {result['wall_s']:.2f} s")

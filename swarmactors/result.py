@@ -163,8 +163,11 @@ class Result:
         return cuts, group
 
     def graph_at(self, tick: int, directed: bool = False) -> nx.Graph:
-        """The true radio graph at ``tick``: alive robots, links in range (mutual unless ``directed``),
-        minus cut links and links between partition groups."""
+        """The true radio graph at ``tick``.
+
+        Alive robots, links in range (mutual unless ``directed``), minus cut links and links between
+        partition groups.
+        """
         rec = self.record(tick)
         cuts, group = self.severed_at(tick)
         ranges = self.ranges()

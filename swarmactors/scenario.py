@@ -10,6 +10,7 @@ complete description of the run.
 from __future__ import annotations
 
 import copy
+import inspect
 import math
 import tomllib
 from pathlib import Path
@@ -21,6 +22,7 @@ from scipy.spatial import cKDTree
 
 from swarmactors.behavior import check_params
 from swarmactors.plugins import BEHAVIORS, CHECKS, PluginError, resolve
+from transport.messages import ACTIONS, action_problem
 
 
 class ScenarioError(ValueError):
@@ -97,7 +99,7 @@ GROUP: dict[str, tuple] = {
     "kind": (str, "ground", _one_of("ground", "flying")),
     "behaviors": (list, [], None),
 }
-EVENT_ACTIONS = ("kill", "kill_fraction", "add", "cut", "restore", "partition", "heal", "loss", "move", "stop")
+EVENT_ACTIONS = tuple(ACTIONS)  # one list of world actions: transport/messages.py
 
 
 def load(path: str | Path, overrides: list[str] = ()) -> dict:
@@ -173,8 +175,10 @@ def set_value(raw: dict, path: str, value: Any, source: str = "--set") -> None:
             if not part.isdigit() or int(part) >= len(node):
                 raise ScenarioError(source, path, f"no item {part!r} in {'.'.join(parts[:i]) or 'the scenario'}")
             node = node[int(part)]
-        else:
+        elif isinstance(node, dict):
             node = node.setdefault(part, {})
+        else:
+            raise ScenarioError(source, path, f"{'.'.join(parts[:i]) or 'the scenario'} is a value, not a table")
     last = parts[-1]
     if isinstance(node, list):
         if not last.isdigit() or int(last) >= len(node):
@@ -188,7 +192,7 @@ def set_value(raw: dict, path: str, value: Any, source: str = "--set") -> None:
 
 def _fields(table: dict, schema: dict, source: str, where: str) -> dict:
     out = {}
-    for key, value in table.items():
+    for key in table:
         if key not in schema:
             raise ScenarioError(source, f"{where}.{key}", f"unknown key (known: {', '.join(sorted(schema))})")
     for key, (typ, default, check) in schema.items():
@@ -202,6 +206,8 @@ def _fields(table: dict, schema: dict, source: str, where: str) -> dict:
                 source, f"{where}.{key}",
                 f"{value!r} is a {type(value).__name__}, expected {' or '.join(t.__name__ for t in types)}",
             )
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ScenarioError(source, f"{where}.{key}", f"{value!r} is not a finite number")
         if check is not None:
             problem = check(value)
             if problem:
@@ -234,8 +240,14 @@ def _check_world(world: dict, source: str) -> None:
     names = set()
     for i, obj in enumerate(world["objects"]):
         key = f"world.objects[{i}]"
-        if not isinstance(obj, dict) or set(obj) != {"name", "pos"} or not isinstance(obj["name"], str):
-            raise ScenarioError(source, key, "must be {name = \"...\", pos = [x, y]}")
+        if (not isinstance(obj, dict) or not {"name", "pos"} <= set(obj) <= {"name", "pos", "known_by"}
+                or not isinstance(obj["name"], str)):
+            raise ScenarioError(source, key, "must be {name = \"...\", pos = [x, y]} (and optionally known_by)")
+        known = obj.get("known_by", "all")
+        if not (known in ("all", "sensing") or (isinstance(known, list) and all(
+                type(i) is int and i >= 0 for i in known))):
+            raise ScenarioError(source, f"{key}.known_by",
+                                f"{known!r} must be \"all\", \"sensing\" or a list of robot ids")
         if obj["name"] in names:
             raise ScenarioError(source, key, f"duplicate object name {obj['name']!r}")
         names.add(obj["name"])
@@ -257,7 +269,7 @@ def _group(g: Any, where: str, sc: dict, source: str, rng: np.random.Generator) 
         grp["placement"] = "explicit"
     else:
         grp["positions"] = _place(grp, sc, source, where, rng).tolist()
-    grp["behaviors"] = [_behavior(b, f"{where}.behaviors[{i}]", source) for i, b in enumerate(grp["behaviors"])]
+    grp["behaviors"] = [_behavior(b, f"{where}.behaviors[{i}]", source, grp) for i, b in enumerate(grp["behaviors"])]
     return grp
 
 
@@ -303,7 +315,7 @@ def _connect_groups(sc: dict, source: str, rng: np.random.Generator) -> None:
     groups = sc["robots"]
     if not any(g["connected"] for g in groups):
         return
-    for attempt in range(2000):
+    for _attempt in range(2000):
         pos = np.vstack([np.array(g["positions"]) for g in groups])
         ranges = np.concatenate([[g["range"]] * g["count"] for g in groups])
         if undirected_graph(pos, ranges).number_of_nodes() and nx.is_connected(undirected_graph(pos, ranges)):
@@ -311,7 +323,9 @@ def _connect_groups(sc: dict, source: str, rng: np.random.Generator) -> None:
         for i, g in enumerate(groups):
             if g["connected"] and g["placement"] != "explicit":
                 g["positions"] = _place(g, sc, source, f"robots[{i}]", rng).tolist()
-    raise ScenarioError(source, "robots.connected", "no connected placement found in 2000 draws; enlarge range or shrink area")
+    raise ScenarioError(
+        source, "robots.connected", "no connected placement found in 2000 draws; enlarge range or shrink area"
+    )
 
 
 def undirected_graph(pos: np.ndarray, ranges: np.ndarray, ids: list[int] | None = None) -> nx.Graph:
@@ -328,9 +342,14 @@ def undirected_graph(pos: np.ndarray, ranges: np.ndarray, ids: list[int] | None 
     return g
 
 
-def _behavior(b: Any, where: str, source: str) -> dict:
-    """A behaviour spec: ``use`` (short name or module:Class), optional ``as`` (the name its
-    report goes under; default the class's ``name``, else ``use``), then its parameters."""
+def _behavior(b: Any, where: str, source: str, group: dict | None = None) -> dict:
+    """A behaviour spec.
+
+    ``use`` (short name or module:Class), optional ``as`` (the name its report goes under; default the
+    class's ``name``, else ``use``), then its parameters. A class's ``validate(params)`` checks them; one
+    declared ``validate(params, group)`` also gets the robot group as resolved (its ``range``, ``sensing``,
+    ``speed``...), for rules that tie a parameter to the robots it runs on.
+    """
     if not isinstance(b, dict) or not isinstance(b.get("use"), str):
         raise ScenarioError(source, where, 'must be a table with use = "name" or "module:Class"')
     if "as" in b and not (isinstance(b["as"], str) and b["as"]):
@@ -345,7 +364,8 @@ def _behavior(b: Any, where: str, source: str) -> dict:
         raise ScenarioError(source, where, f"{b['use']}: {problem}")
     validate = getattr(cls, "validate", None)
     if validate is not None:
-        problem = validate(params)
+        takes_group = "group" in inspect.signature(validate).parameters
+        problem = validate(params, group=group) if takes_group else validate(params)
         if problem:
             raise ScenarioError(source, where, f"{b['use']}: {problem}")
     return {"use": b["use"], "as": b.get("as") or getattr(cls, "name", "") or b["use"], **params}
@@ -366,31 +386,15 @@ def _event(e: Any, where: str, sc: dict, source: str, rng: np.random.Generator) 
     action = actions[0]
     value = e[action]
     key = f"{where}.{action}"
-    if action == "kill":
-        ids = [value] if isinstance(value, int) else value
-        if not isinstance(ids, list) or not ids or not all(type(i) is int for i in ids):
-            raise ScenarioError(source, key, f"{value!r} must be a robot id or a list of ids")
-        value = ids
-    elif action in ("kill_fraction", "loss"):
-        if not isinstance(value, _NUM) or isinstance(value, bool) or _probability(value):
-            raise ScenarioError(source, key, f"{value!r} must be in [0, 1]")
-    elif action == "add":
-        grp = _group(value, key, sc, source, rng)
-        value = expand_group(grp)
-    elif action in ("cut", "restore"):
-        if not isinstance(value, list) or not all(
-            isinstance(p, list) and len(p) == 2 and all(isinstance(i, int) for i in p) for p in value
-        ):
-            raise ScenarioError(source, key, "must be a list of [a, b] robot id pairs")
-    elif action == "partition":
-        if not isinstance(value, list) or not all(isinstance(p, list) and all(isinstance(i, int) for i in p) for p in value):
-            raise ScenarioError(source, key, "must be a list of lists of robot ids")
-    elif action == "move":
-        names = {o["name"] for o in sc["world"]["objects"]}
-        if not isinstance(value, dict) or value.get("object") not in names or "pos" not in value:
-            raise ScenarioError(source, key, f"must be {{object = name, pos = [x, y]}} with a name in {sorted(names)}")
-    elif action in ("heal", "stop") and value is not True:
-        raise ScenarioError(source, key, "must be true")
+    if action == "add":
+        value = expand_group(_group(value, key, sc, source, rng))
+    else:  # the world's own rule for the action (transport/messages.py); robot ids are checked later
+        objects = {o["name"] for o in sc["world"]["objects"]}
+        problem = action_problem({action: value}, dims=sc["world"]["dims"], objects=objects)
+        if problem:
+            raise ScenarioError(source, key, problem)
+        if action == "kill" and isinstance(value, int):
+            value = [value]
     return {"at": at, action: value}
 
 

@@ -24,8 +24,8 @@ from typing import Any
 
 from swarmactors.result import to_jsonable
 from transport import unpack
+from transport.messages import DROP_CAUSES
 
-DROP_CAUSES = ("range", "loss", "cut", "bandwidth", "dead", "malformed")
 ACTIVITY_TICKS = 3  # a robot "is talking" when it sent frames in the last ACTIVITY_TICKS ticks
 RECENT_TICKS = 50  # per-robot frame history kept for the detail panel
 EVENTS_SHOWN = 40
@@ -127,7 +127,7 @@ class Scene:
         self.t = msg["t"]
         self.pos = msg.get("pos", [])
         self.status = {int(k): v for k, v in msg.get("status", {}).items()}
-        for row, r in zip(self.pos, msg.get("ranges", [])):
+        for row, r in zip(self.pos, msg.get("ranges", []), strict=False):
             self.ranges[row[0]] = r
         if isinstance(msg.get("objects"), dict):
             self.objects = msg["objects"]

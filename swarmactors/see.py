@@ -15,7 +15,7 @@ from pathlib import Path
 
 from rich.console import Console
 
-EXIT_OK, EXIT_INPUT, EXIT_RUNTIME, EXIT_INTERRUPTED = 0, 2, 3, 130
+from swarmactors.exitcodes import EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME
 
 
 def _say(text: str) -> None:

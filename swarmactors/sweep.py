@@ -47,7 +47,8 @@ from pathlib import Path
 
 from swarmactors.launcher import fixed_hash_seed
 from swarmactors.result import to_jsonable
-from swarmactors.scene import DROP_CAUSES, toml_value
+from swarmactors.scene import toml_value
+from transport.messages import DROP_CAUSES
 
 COLUMNS_AFTER_GRID = ["trial", "seed", "ticks", "trace_hash", "stop_reason", "robots", "alive", "frames_sent",
                       "deliveries", *[f"dropped.{c}" for c in DROP_CAUSES], "dropped_total", "passed", "error"]
@@ -97,7 +98,7 @@ class Sweep:
         return self.out / "trials" / point_slug(self.keys, t.values) / f"t{t.trial}"
 
     def trial_overrides(self, t: Trial) -> list[str]:
-        return [*self.overrides, *[f"{k}={toml_value(v)}" for k, v in zip(self.keys, t.values)],
+        return [*self.overrides, *[f"{k}={toml_value(v)}" for k, v in zip(self.keys, t.values, strict=True)],
                 f"run.seed={t.seed}"]
 
 
@@ -134,7 +135,7 @@ def trial_seed(base: int, trial: int) -> int:
 def point_slug(keys: list[str], values: tuple) -> str:
     if not keys:
         return "base"
-    text = ",".join(f"{k}={cell(v)}" for k, v in zip(keys, values))
+    text = ",".join(f"{k}={cell(v)}" for k, v in zip(keys, values, strict=True))
     return re.sub(r"[^A-Za-z0-9_.=,+-]", "_", text)[:150]
 
 
@@ -176,7 +177,7 @@ def run_trial(sweep_args: dict, t: Trial) -> dict:
 
     sw: Sweep = sweep_args["sweep"]
     out_dir = sw.trial_dir(t)
-    row = {k: cell(v) for k, v in zip(sw.keys, t.values)}
+    row = {k: cell(v) for k, v in zip(sw.keys, t.values, strict=True)}
     row.update(trial=str(t.trial), seed=str(t.seed))
     if out_dir.exists():
         shutil.rmtree(out_dir)  # a trial cut short before: start it afresh
@@ -281,7 +282,7 @@ class Table:
         for i, cells in enumerate(rows):
             if len(cells) != len(header) or (i == len(rows) - 1 and not complete_lines):
                 continue
-            row = dict(zip(header, cells))
+            row = dict(zip(header, cells, strict=True))
             self.rows[tuple(row[k] for k in [*self.sweep.keys, "trial"])] = row
         self.header = header
         self._rewrite()  # drop a torn line now, so appends start on a clean line
@@ -449,7 +450,7 @@ def summary_plots(sw: Sweep, table: Table) -> list[Path]:
     if not metrics:
         return []
     out = []
-    for ki, (key, values) in enumerate(sw.grid):
+    for key, values in sw.grid:
         numeric_x = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
         xs = {cell(v): (float(v) if numeric_x else i) for i, v in enumerate(values)}
         others = [k for k in sw.keys if k != key]
@@ -460,7 +461,7 @@ def summary_plots(sw: Sweep, table: Table) -> list[Path]:
         nrow = math.ceil(len(metrics) / ncol)
         with style() as plt:
             fig, axes = plt.subplots(nrow, ncol, figsize=(4.0 * ncol, 3.0 * nrow), squeeze=False)
-            for ax, m in zip(axes.flat, metrics):
+            for ax, m in zip(axes.flat, metrics, strict=False):
                 for si, s in enumerate(series):
                     colour = PALETTE[si % len(PALETTE)]
                     px, mean, sd = [], [], []
@@ -475,7 +476,7 @@ def summary_plots(sw: Sweep, table: Table) -> list[Path]:
                         px.append(x)
                         mean.append(sum(ys) / len(ys))
                         sd.append(math.sqrt(sum((y - mean[-1]) ** 2 for y in ys) / len(ys)))
-                    label = ", ".join(f"{k}={v}" for k, v in zip(others, s)) if others else None
+                    label = ", ".join(f"{k}={v}" for k, v in zip(others, s, strict=True)) if others else None
                     ax.errorbar(px, mean, yerr=sd, color=colour, marker="o", ms=4, lw=1.4, capsize=3, label=label)
                 ax.set_title("pass rate (all checks)" if m == "passed" else m.removeprefix("metric."))
                 if m == "passed":

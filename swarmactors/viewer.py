@@ -40,8 +40,10 @@ from urllib.parse import urlsplit
 from aiohttp import WSMsgType, web
 
 from swarmactors.scene import Scene, events_toml
+from swarmactors.tasks import TaskSet
 from transport import Endpoints, Keys, Link, QueryError, pack, unpack
 from transport.keys import CONTROL_ANY
+from transport.messages import ACTIONS
 
 log = logging.getLogger(__name__)
 
@@ -49,7 +51,7 @@ MAX_FPS = 30
 STATUS_EVERY_S = 0.5
 CONTROL_TIMEOUT_S = 5.0
 FIND_TIMEOUT_S = 2.0
-WORLD_ACTIONS = ("kill", "kill_fraction", "cut", "restore", "partition", "heal", "loss", "move", "stop")
+WORLD_ACTIONS = tuple(a for a in ACTIONS if a != "add")  # what the page may ask of the world
 DEFAULT_RATE = 10.0  # ticks per second when ▶ is pressed (None: as fast as the world goes)
 
 
@@ -110,7 +112,7 @@ class LiveSource(Source):
         self.rate: float | None = DEFAULT_RATE
         self.playing = False
         self.last_error: str | None = None
-        self._tasks: list[asyncio.Task] = []
+        self._tasks = TaskSet("viewer source")
         self._pacer: asyncio.Task | None = None
         self._target = 0
         self._failures = 0
@@ -119,8 +121,8 @@ class LiveSource(Source):
     @classmethod
     def in_process(cls, world, link: Link, sc: dict) -> LiveSource:
         """Fed by a sink on ``world`` (in the world's process): exact records, frames included."""
-        scene = Scene(run_id=world.keys.run_id, clock=world.clock, ticks=world.ticks, scenario=sc, mode="live")
-        src = cls(link, world.keys, scene, world.clock)
+        scene = Scene(run_id=world.keys.run_id, clock=world.clock.name, ticks=world.ticks, scenario=sc, mode="live")
+        src = cls(link, world.keys, scene, world.clock.name)
         world.sinks.append(_SceneSink(src, world))
         return src
 
@@ -151,13 +153,11 @@ class LiveSource(Source):
 
     # -- lifecycle --------------------------------------------------------
     async def start(self) -> None:
-        self._tasks.append(asyncio.get_running_loop().create_task(self._poll_status()))
+        self._tasks.spawn(self._poll_status())
 
     async def close(self) -> None:
-        for task in [*self._tasks, self._pacer]:
-            if task is not None:
-                task.cancel()
-        self._tasks.clear()
+        self._pacer = None
+        await self._tasks.close()
 
     async def _poll_status(self) -> None:
         """Keep the world's status (paused, finished …) and notice a world that stopped answering."""
@@ -234,7 +234,7 @@ class LiveSource(Source):
                 answer = await self.control("resume")
             else:
                 self._target = self._next_tick()
-                self._pacer = asyncio.get_running_loop().create_task(self._pace())
+                self._pacer = self._tasks.spawn(self._pace())
                 answer = {"ok": True, "rate": self.rate}
         self.notify()
         return answer
@@ -308,6 +308,7 @@ class ReplaySource(Source):
         self.playing = False
         self.rate: float | None = 10.0
         self._player: asyncio.Task | None = None
+        self._tasks = TaskSet("replay source")
 
     def frame(self) -> dict:
         return self.scene.frame(self.extra())
@@ -346,7 +347,7 @@ class ReplaySource(Source):
                 self.seek(self.replay.first)
             self.playing = True
             if self._player is None or self._player.done():
-                self._player = asyncio.get_running_loop().create_task(self._play())
+                self._player = self._tasks.spawn(self._play())
             self.notify()
             return {"ok": True}
         if cmd in ("pause", "step"):
@@ -372,8 +373,8 @@ class ReplaySource(Source):
         self.notify()
 
     async def close(self) -> None:
-        if self._player is not None:
-            self._player.cancel()
+        self._player = None
+        await self._tasks.close()
 
 
 # ---------------------------------------------------------------- the server
@@ -495,7 +496,7 @@ class ViewerServer:
         ws = web.WebSocketResponse(heartbeat=20)
         await ws.prepare(request)
         self._pages.add(ws)
-        sender = asyncio.get_running_loop().create_task(self._send_frames(ws))
+        sender = asyncio.get_running_loop().create_task(self._send_frames(ws))  # awaited below
         try:
             async for msg in ws:
                 if msg.type != WSMsgType.TEXT:
@@ -509,6 +510,7 @@ class ViewerServer:
                     await ws.send_str(json.dumps({"type": "reply", "id": cmd.get("id"), **answer}, default=str))
         finally:
             sender.cancel()
+            await asyncio.gather(sender, return_exceptions=True)
             self._pages.discard(ws)
         return ws
 
@@ -582,16 +584,19 @@ async def run_with_viewer(server: ViewerServer, sc: dict, out_dir: Path, endpoin
     if paused is None:
         paused = sc["run"]["clock"] == "lockstep"
     announce(f"viewer: {url}" + ("  (the run waits after tick 0: press ▶ in the page)" if paused else ""))
-    loop = asyncio.get_running_loop()
+    tasks = TaskSet("viewer run")
 
     def on_open(world, link) -> None:
         source = LiveSource.in_process(world, link, sc)
-        loop.create_task(server.set_source(source))
+        tasks.spawn(server.set_source(source))
         if paused:
-            loop.create_task(source.control("run_to", tick=1))
+            tasks.spawn(source.control("run_to", tick=1))
 
-    result = await run_world(sc, out_dir, endpoints, run_id, processes=processes, local_host=local_host,
-                             on_tick=on_tick, on_open=on_open)
+    try:
+        result = await run_world(sc, out_dir, endpoints, run_id, processes=processes, local_host=local_host,
+                                 on_tick=on_tick, on_open=on_open)
+    finally:
+        await tasks.close()
     if result.trace_path is not None and result.trace_path.exists():
         from swarmactors.replay import Replay
 
@@ -618,7 +623,10 @@ async def _until_interrupted() -> None:
             loop.remove_signal_handler(signal.SIGTERM)
 
 
-async def find_runs(link: Link, timeout: float = FIND_TIMEOUT_S) -> list[dict]:
+async def find_runs(
+    link: Link,
+    timeout: float = FIND_TIMEOUT_S,  # noqa: ASYNC109 — handed to Link.query_all as Zenoh's query timeout
+) -> list[dict]:
     """The status of every run whose world answers on this Zenoh network."""
     out = []
     for payload in await link.query_all(CONTROL_ANY, pack({"cmd": "status"}), timeout=timeout):

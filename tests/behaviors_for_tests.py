@@ -84,3 +84,102 @@ class RaiseInInit(Behavior):
 
     def __init__(self, message: str = "cannot build this behaviour"):
         raise RuntimeError(message)
+
+
+class Mutator(Behavior):
+    """Robot 0 broadcasts a nested body at tick 1; robot ``mutator`` changes what it received.
+
+    Every robot reports the body as it saw it at the end, and what it holds in ``ctx.objects``;
+    robot ``mutator`` also scribbles on its own ``ctx.objects``.
+    """
+
+    name = "mutator"
+    kinds = ("NEST",)
+
+    def __init__(self, mutator: int = 1):
+        self.mutator = mutator
+        self.body = None
+        self.objects = None
+
+    def on_tick(self, ctx, sensed):
+        if ctx.id == 0 and ctx.tick == 1:
+            ctx.broadcast("NEST", {"list": [0, [1]], "map": {"a": {"b": 1}}, "n": 7})
+        if ctx.id == self.mutator and ctx.objects:
+            name = next(iter(ctx.objects))
+            ctx.objects[name].append(99.0)
+            ctx.objects["mine"] = [0.0, 0.0]
+        self.objects = {k: list(v) for k, v in ctx.objects.items()}
+
+    def on_frame(self, ctx, frame):
+        self.body = frame.body
+        if ctx.id == self.mutator:
+            frame.body["list"].append(ctx.id)
+            frame.body["list"][1].append(ctx.id)
+            frame.body["map"]["a"]["b"] = ctx.id
+            frame.body["map"]["new"] = True
+
+    def report(self):
+        return {"body": self.body, "objects": self.objects}
+
+
+class BatchAndTimers(Behavior):
+    """Records the order of hooks (lockstep) and when realtime timers fire against their due time.
+
+    Robot 0 broadcasts PING at every tick; every robot logs hooks as ``[tick, hook]``. Each robot arms a timer of
+    ``delay`` clock units at its first tick and records ``[due, fired_at]``.
+    """
+
+    name = "batch_timers"
+    kinds = ("PING",)
+
+    def __init__(self, delay: float = 0.05):
+        self.delay = delay
+        self.order: list = []
+        self.timer: list | None = None
+        self.batches = 0
+
+    def on_start(self, ctx):
+        due = ctx.now + self.delay
+
+        def fire():
+            self.timer = [due, ctx.now]
+            self.order.append([ctx.tick, "timer"])
+
+        ctx.after(self.delay, fire)
+
+    def on_frame(self, ctx, frame):
+        self.order.append([ctx.tick, "frame"])
+
+    def on_batch(self, ctx):
+        self.batches += 1
+        self.order.append([ctx.tick, "batch"])
+
+    def on_tick(self, ctx, sensed):
+        self.order.append([ctx.tick, "tick"])
+        if ctx.id == 0:
+            ctx.broadcast("PING", ctx.tick)
+
+    def report(self):
+        return {"order": self.order[:40], "timer": self.timer, "batches": self.batches}
+
+
+class ReadsContext(Behavior):
+    """Reports the scenario values the context gives, and whether time can be assigned."""
+
+    name = "reads_context"
+
+    def __init__(self):
+        self.seen = None
+
+    def on_start(self, ctx):
+        errors = []
+        for attr in ("now", "tick", "dt", "range", "sensing", "clock"):
+            try:
+                setattr(ctx, attr, 5)
+            except AttributeError:
+                errors.append(attr)
+        self.seen = {"dt": ctx.dt, "range": ctx.range, "sensing": ctx.sensing, "clock": ctx.clock,
+                     "read_only": errors}
+
+    def report(self):
+        return {"seen": self.seen}

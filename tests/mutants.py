@@ -39,8 +39,10 @@ _started_here: list[int] = []  # robots started in this process, ever
 
 
 class FloodWithHiddenState(Flooding):
-    """Delays its forward once this process has started more than four robots: hidden global state, so the
-    run depends on how the robots are spread over host processes."""
+    """Delays its forward once this process has started more than four robots.
+
+    Hidden global state, so the run depends on how the robots are spread over host processes.
+    """
 
     def on_start(self, ctx):
         _started_here.append(ctx.id)

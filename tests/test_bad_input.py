@@ -137,6 +137,7 @@ def test_cli_rejects_bad_scenario_before_starting(tmp_path, monkeypatch, capsys,
     _assert_rejected(code, err, tmp_path, "s.toml", key)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", ["unknown-key", "loss-above-1", "toml-syntax-error"])
 def test_cli_exit_code_2_from_a_real_process(tmp_path, case):
     """The same through ``python -m swarmactors`` (exit status of the process itself)."""
@@ -146,6 +147,7 @@ def test_cli_exit_code_2_from_a_real_process(tmp_path, case):
     _assert_rejected(proc.returncode, proc.stderr, tmp_path, "s.toml", key)
 
 
+@pytest.mark.slow
 def test_cli_rejects_missing_file(tmp_path):
     proc = _cli(["run", "nowhere.toml"], cwd=tmp_path)
     assert proc.returncode == EXIT_INPUT, proc.stderr
@@ -154,6 +156,7 @@ def test_cli_rejects_missing_file(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_cli_rejects_negative_processes(tmp_path):
     (tmp_path / "s.toml").write_text(GOOD)
     proc = _cli(["run", "s.toml", "--processes", "-1"], cwd=tmp_path)
@@ -172,6 +175,7 @@ def test_cli_rejects_bad_options(tmp_path, monkeypatch, capsys, extra):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
 
 
+@pytest.mark.slow
 def test_cli_good_scenario_runs_and_writes_output(tmp_path):
     """The control for the tests above: the same file, unbroken, runs and writes its output."""
     (tmp_path / "s.toml").write_text(GOOD)
@@ -180,9 +184,12 @@ def test_cli_good_scenario_runs_and_writes_output(tmp_path):
     assert (tmp_path / "out" / "bad-input" / "result.json").is_file()
 
 
+@pytest.mark.slow
 def test_cli_error_names_a_long_path_verbatim(tmp_path):
-    """The file name must survive intact on stderr (no wrapping at the console width), so
-    that a user or a script can find it in the message."""
+    """The file name must survive intact on stderr (no wrapping at the console width).
+
+    So that a user or a script can find it in the message.
+    """
     deep = tmp_path / ("scenarios_with_a_rather_long_directory_name_" * 2) / "experiment_variant_b"
     deep.mkdir(parents=True)
     path = deep / "flooding_with_negative_loss.toml"
@@ -262,8 +269,10 @@ class _HostThread:
 
 
 class WireRun:
-    """Run a scenario's world in this thread; a driver thread starts the hosts and a raw
-    Zenoh session (connected to the world's endpoint like any outsider) that injects messages.
+    """Run a scenario's world in this thread while a driver thread injects messages.
+
+    The driver thread starts the hosts and a raw Zenoh session (connected to the world's endpoint like
+    any outsider) that injects messages.
 
     Lockstep: the driver asks the world (``control`` ``run_to``) to pause before tick
     ``PAUSE_AT`` before any host joins, injects while it is paused, waits until the
@@ -394,7 +403,7 @@ def _garbage(wr: WireRun, z: zenoh.Session, status: dict) -> None:
         "join-count-bool": (k.join, pack({"count": True})),
     }
     wr.notes["expected"] = len(puts) + len(queries)
-    for name, (key, data) in puts.items():
+    for key, data in puts.values():
         z.put(key, data)
     for name, (key, data) in queries.items():
         wr.replies[name] = _get(z, key, data)
@@ -409,6 +418,7 @@ def garbage_run(tmp_path_factory):
     return wr, wr.run()
 
 
+@pytest.mark.slow
 def test_wire_garbage_is_dropped_counted_and_changes_nothing(garbage_run, clean_flood):
     wr, result = garbage_run
     assert wr.notes["expected"] == N_GARBAGE  # keep the count in step with _garbage
@@ -432,9 +442,12 @@ def test_wire_garbage_is_dropped_counted_and_changes_nothing(garbage_run, clean_
     assert _trace_without_malformed(result) == _trace_without_malformed(clean_flood)
 
 
+@pytest.mark.slow
 def test_wire_garbage_is_recorded_in_the_trace(garbage_run):
-    """Every malformed drop counted in result.json is also in the trace (tick records' ``mal``),
-    including garbage that arrives between two ticks (here: while the world is paused)."""
+    """Every malformed drop counted in result.json is also in the trace (tick records' ``mal``).
+
+    Including garbage that arrives between two ticks (here: while the world is paused).
+    """
     wr, result = garbage_run
     in_trace = sum(len(rec.get("mal", ())) for rec in result.trace)
     assert in_trace == result["world"]["dropped"]["malformed"] == N_GARBAGE
@@ -460,9 +473,13 @@ def _control_garbage(wr: WireRun, z, status):
         wr.replies[name] = _get(z, wr.keys.control, data, timeout=2.0)
 
 
+@pytest.mark.slow
 def test_control_garbage_is_refused_counted_and_changes_nothing(tmp_path, clean_flood):
-    """Every malformed or inapplicable ``control`` command gets ``{"ok": false, "error": ...}``
-    at once (none is queued to fail later), is counted as malformed, and the run is the clean run."""
+    """Every malformed or inapplicable ``control`` command is refused at once.
+
+    It gets ``{"ok": false, "error": ...}`` at once (none is queued to fail later), is counted as
+    malformed, and the run is the clean run.
+    """
     wr = WireRun(FLOOD_RAW, tmp_path / "run", inject=_control_garbage, expect_malformed=len(CONTROL_GARBAGE))
     result = wr.run()
     answers = {}
@@ -493,12 +510,15 @@ def _step_from_unknown_host(wr: WireRun, z, status):
     wr.replies["forged"] = _get(z, wr.keys.up("h7"), pack({"h": "h7", "t": PAUSE_AT - 1, "r": []}), timeout=3)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("inject", [_forged_step_robot, _forged_step_crash, _step_from_unknown_host],
                          ids=["forged-robot-id", "forged-crash-report", "unknown-host"])
 def test_forged_step_query_is_dropped_and_counted(tmp_path, clean_flood, inject):
-    """A step query forged by an outsider on ``up/{host}`` must not take the real host's
-    place at the barrier, nor speak for robots: it is refused and counted as malformed,
-    and the run is the clean run."""
+    """A step query forged by an outsider on ``up/{host}`` is refused.
+
+    It must not take the real host's place at the barrier, nor speak for robots: it is refused and
+    counted as malformed, and the run is the clean run.
+    """
     wr = WireRun(FLOOD_RAW, tmp_path / "run", inject=inject, expect_malformed=1)
     result = wr.run()
     assert result["ticks"] == FLOOD_RAW["run"]["ticks"]
@@ -540,6 +560,7 @@ def _forge_realtime(wr: WireRun, z, status):
         z.put(wr.keys.up(a), data)
 
 
+@pytest.mark.slow
 def test_realtime_forged_robot_ids_are_dropped_and_counted(tmp_path):
     wr = WireRun(BEACON_RT_RAW, tmp_path / "run", inject=_forge_realtime, hosts=(2, None), expect_malformed=7)
     result = wr.run()
@@ -620,7 +641,7 @@ def _fuzz_world(started: bool = True) -> World:
                 world.robots.host[rid] = name
         world.unclaimed = []
         world.started = True
-        world._begin_tick()
+        world.begin()
     return world
 
 
@@ -637,6 +658,7 @@ def test_fuzz_codec_unpack_raises_only_malformed(data):
         pass
 
 
+@pytest.mark.slow  # no Zenoh, but about 4 s of examples
 @FUZZ
 @given(VALUES)
 def test_fuzz_codec_roundtrip(value):
@@ -665,7 +687,7 @@ def test_fuzz_decode_up_returns_a_map_or_counts_malformed(payload):
         assert after == before + 1
     else:
         assert after == before
-        assert isinstance(msg, dict) and msg["h"] == "h0" and isinstance(msg["t"], int)
+        assert msg.host == "h0" and type(msg.tick) is int
 
 
 ROBOT_IDS = st.sampled_from([0, 1, 2, 3, 4, -1, 5, 99, True, False, 2**64 - 1]) | INTS
@@ -685,6 +707,7 @@ RECORDS = (
 )
 
 
+@pytest.mark.slow  # no Zenoh, but about 4 s of examples
 @FUZZ
 @given(st.lists(RECORDS, max_size=4), st.none() | VALUES)
 @example([[3, [1.0, 1.0], [[None, "K", 1, b"", []]], None, "forged crash"]], {3: {"beacon": {}}})  # h1's robot
@@ -693,16 +716,22 @@ RECORDS = (
 @example([[0, None, [], {1: "a", "b": 2}, None]], None)  # status keys of mixed types
 @example([[0, None, [[None, "K", 2**63, b"", []]], None, None]], None)  # seq beyond int64, with loss > 0
 def test_fuzz_absorb_and_record_never_crash_the_world(records, reports):
-    """Whatever a (buggy or hostile) host h0 sends, the world counts what it cannot use,
-    never touches robots h0 does not run, and can still record and end the tick."""
+    """Whatever a (buggy or hostile) host h0 sends, the world survives it.
+
+    It counts what it cannot use, never touches robots h0 does not run, and can still record and end
+    the tick.
+    """
     world = _fuzz_world()
     msg = unpack(pack({"h": "h0", "t": 0, "r": records, "rep": reports}))  # as it arrives off the wire
+    before = world.counters.dropped["malformed"]
     msg = world._decode_up("h0", seal(world.hosts["h0"].key, pack(msg)))  # sealed as host h0 does
-    assert msg is not None
-    if msg.get("rep") is not None:
-        world._take_reports("h0", msg["rep"])
-    world._absorb("h0", msg)
-    world._end_tick()
+    if msg is None:  # refused whole by the message definition: counted once
+        assert world.counters.dropped["malformed"] == before + 1
+    else:
+        if msg.reports is not None:
+            world._take_reports("h0", msg.reports)
+        world._take("h0", msg)
+    world.end()
     for rid in H1_ROBOTS:
         assert world.robots.alive[rid], f"h0 killed h1's robot {rid}"
         assert not world.robots.vel[rid].any(), f"h0 moved h1's robot {rid}"
@@ -717,10 +746,11 @@ def test_fuzz_absorb_and_record_never_crash_the_world(records, reports):
 @example(0, [None, "K", 1, b"", [2**64 - 1, -(2**63)]])
 def test_fuzz_check_frame_and_transmit(src, frame):
     world = _fuzz_world()
-    out = world._check_frame(src, unpack(pack(frame)))
-    if out is not None:
-        world._transmit([out])
-        world._end_tick()
+    row = [src, None, [frame], None, None]
+    msg = world._decode_up("h0", seal(world.hosts["h0"].key, pack({"h": "h0", "t": 0, "r": [row]})))
+    if msg is not None:
+        world._take("h0", msg)
+    world.end()
 
 
 @FUZZ
@@ -746,9 +776,9 @@ def test_fuzz_control_answers_once_and_never_crashes_the_world(payload):
     answer = unpack(data)
     assert isinstance(answer, dict) and isinstance(answer.get("ok"), bool)
     # what it queued is applied at the next tick: that must not crash the world either
-    world.tick += 1
-    world._begin_tick()
-    world._end_tick()
+    world.clock._tick += 1
+    world.begin()
+    world.end()
 
 
 @FUZZ
@@ -768,6 +798,7 @@ _TRACE_HEADER = pack({"trace": "swarmactors", "version": 1, "run_id": "x", "cloc
                       "pos_digits": 6, "scenario": {}})
 
 
+@pytest.mark.slow  # no Zenoh, but about 4 s of examples
 @FUZZ
 @given(st.binary(max_size=200) | st.builds(
     lambda recs, tail: _TRACE_HEADER + b"".join(pack(r) for r in recs) + tail,
@@ -825,6 +856,7 @@ def _offset_in(message: str) -> int:
     return int(m.group(1))
 
 
+@pytest.mark.slow
 def test_intact_trace_reads_and_verifies(tmp_path, trace_bytes):
     data, _ = trace_bytes
     path = tmp_path / "trace.msgpack"
@@ -834,6 +866,7 @@ def test_intact_trace_reads_and_verifies(tmp_path, trace_bytes):
     assert verify(path) == footer["trace_hash"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("record", [0, 1, 3, 7])  # 0 = header, 7 = footer
 def test_truncated_trace_names_file_and_offset(tmp_path, trace_bytes, record):
     data, starts = trace_bytes
@@ -845,6 +878,7 @@ def test_truncated_trace_names_file_and_offset(tmp_path, trace_bytes, record):
     assert _offset_in(str(info.value)) == starts[record]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("record", [1, 4, 7])
 def test_corrupt_trace_names_file_and_offset(tmp_path, trace_bytes, record):
     data, starts = trace_bytes
@@ -857,6 +891,7 @@ def test_corrupt_trace_names_file_and_offset(tmp_path, trace_bytes, record):
     assert _offset_in(str(info.value)) == s
 
 
+@pytest.mark.slow
 def test_trace_record_that_is_not_a_map(tmp_path, trace_bytes):
     data, starts = trace_bytes
     path = tmp_path / "trace.msgpack"
@@ -866,6 +901,7 @@ def test_trace_record_that_is_not_a_map(tmp_path, trace_bytes):
     assert str(path) in str(info.value) and _offset_in(str(info.value)) == starts[2]
 
 
+@pytest.mark.slow
 def test_trace_tick_record_without_tick(tmp_path, trace_bytes):
     data, starts = trace_bytes
     path = tmp_path / "trace.msgpack"
@@ -884,8 +920,10 @@ def test_not_a_trace(tmp_path):
 
 
 def test_empty_trace_file_is_an_error(tmp_path):
-    """A zero-byte trace (e.g. a run killed before its buffered header reached the disk)
-    is a trace truncated at byte 0, not an empty run."""
+    """A zero-byte trace is a trace truncated at byte 0, not an empty run.
+
+    E.g. a run killed before its buffered header reached the disk.
+    """
     path = tmp_path / "trace.msgpack"
     path.write_bytes(b"")
     with pytest.raises(TraceError) as info:
@@ -900,6 +938,7 @@ def test_missing_trace_file(tmp_path):
     assert str(path) in str(info.value)
 
 
+@pytest.mark.slow
 def test_verify_trace_without_footer(tmp_path, trace_bytes):
     data, starts = trace_bytes
     path = tmp_path / "trace.msgpack"

@@ -143,6 +143,7 @@ GRAPHS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(GRAPHS))
 def test_lists_verdicts_and_relay_counts(run, name):
     positions, truth = GRAPHS[name]
@@ -154,6 +155,7 @@ def test_lists_verdicts_and_relay_counts(run, name):
     assert_protocol(result, [0])
 
 
+@pytest.mark.slow
 def test_fig1_initiator_at_the_cut_robot_is_doubly_connected_to_all_yet_concludes_false(run):
     # Robot 0 is the centre of the bowtie: DCR = CR (true), but its neighbours answer DC-FALSE.
     result = run(scenario(BOWTIE))
@@ -163,6 +165,7 @@ def test_fig1_initiator_at_the_cut_robot_is_doubly_connected_to_all_yet_conclude
     assert_protocol(result, [0])
 
 
+@pytest.mark.slow
 def test_lone_robot_and_two_components(run):
     far = [[p[0] + 10, p[1]] for p in ladder(2)]
     pair = [[20.0, 0.0], [20.9, 0.0]]
@@ -178,6 +181,7 @@ def test_lone_robot_and_two_components(run):
     assert reps[11]["biconnected"] is False and reps[11]["reason"] == "alone"
 
 
+@pytest.mark.slow
 def test_ring_of_35_sends_69_and_receives_138_per_robot(run):
     sc = scenario(ring(35), n_max=35, ticks=3 * 35 + 10)
     result = run(sc)
@@ -205,6 +209,7 @@ def graph_of(positions) -> nx.Graph:
 PATH_CAP = 6000
 
 
+@pytest.mark.slow
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(n=st.integers(3, 12), seed=st.integers(0, 10_000), density=st.sampled_from([1.2, 2.0, 3.0]))
 @example(n=11, seed=0, density=3.0)  # too many paths: the budget branch
@@ -229,6 +234,7 @@ def test_random_geometric_graphs(run, n, seed, density):
         assert result["world"]["frames_sent"] <= n * (300 + 2) * 2 + 10 * n
 
 
+@pytest.mark.slow
 def test_two_initiators_at_the_same_tick_share_one_fill(run):
     result = run(scenario(ladder(4), initiator=[0, 7]))
     reps = result.reports("biconnectivity")
@@ -236,6 +242,7 @@ def test_two_initiators_at_the_same_tick_share_one_fill(run):
     assert_protocol(result, [0, 7])
 
 
+@pytest.mark.slow
 def test_staggered_initiators_a_newer_fill_supersedes_and_verdicts_hold(run):
     # Robot 7's check starts at tick 3, before robot 0's wave (tick 1) reaches it (3 hops): two periods.
     sc = scenario(ring(10), initiator=[0, 5], at=[1, 3], n_max=10)
@@ -253,6 +260,7 @@ def test_staggered_initiators_a_newer_fill_supersedes_and_verdicts_hold(run):
     assert sum(sum(r["stale"].values()) for r in reps.values()) > 0  # the old period's frames were dropped
 
 
+@pytest.mark.slow
 def test_periodic_rechecks_do_not_mix_periods(run):
     n = 5
     every = 3 * n + 6
@@ -272,6 +280,7 @@ def test_periodic_rechecks_do_not_mix_periods(run):
     assert len({ck["period"] for ck in done}) == len(done)  # one fresh fill per re-check
 
 
+@pytest.mark.slow
 def test_rechecks_faster_than_a_check_supersede_and_never_hang(run):
     sc = scenario(ring(5), every=7, ticks=60)
     sc["checks"] = CHECKS
@@ -282,6 +291,7 @@ def test_rechecks_faster_than_a_check_supersede_and_never_hang(run):
     assert sum(ck["verdict"] is True for ck in checks) >= 2
 
 
+@pytest.mark.slow
 def test_flood_verdict_reaches_every_robot(run):
     result = run(scenario(ring(8), flood_verdict=True))
     reps = result.reports("biconnectivity")
@@ -289,6 +299,7 @@ def test_flood_verdict_reaches_every_robot(run):
     assert {r["reason"] for rid, r in reps.items() if rid not in (0, 1, 7)} == {"flooded"}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["ring6", "fig1 bowtie", "ladder2x3 (ring of 6 with a chord)", "pair"])
 def test_realtime_same_lists_and_verdicts_within_the_bound(run, name):
     positions, _ = GRAPHS[name]
@@ -296,12 +307,14 @@ def test_realtime_same_lists_and_verdicts_within_the_bound(run, name):
     assert_protocol(result, [0])
 
 
+@pytest.mark.slow
 def test_lockstep_with_host_processes_same_trace(run):
     sc = scenario(ladder(3))
     assert run(sc, processes=0)["trace_hash"] == run(sc, processes=2)["trace_hash"]
 
 
 # ---------------------------------------------------------------- loss and budget
+@pytest.mark.slow
 def test_loss_measured_nothing_hangs(run, capsys):
     """The paper assumes reliable links: measure wrong and missing verdicts as p grows."""
     rows = []
@@ -331,6 +344,7 @@ def test_loss_measured_nothing_hangs(run, capsys):
             print(f"{p:4.2f}  {total:6d}  {wrong:5d}  {missing:7d}")
 
 
+@pytest.mark.slow
 def test_budget_exceeded_reports_null_within_the_bound(run):
     cluster = [[0.3 * math.cos(a), 0.3 * math.sin(a)] for a in np.linspace(0, 2 * math.pi, 7, endpoint=False)]
     sc = scenario(cluster, budget=200, n_max=7)  # K7: 1957 CR frames per robot per period unbounded
@@ -369,6 +383,7 @@ class StampForger(Behavior):
                 ctx.broadcast("DCR", body)
 
 
+@pytest.mark.slow
 def test_bad_stamp_lists_are_dropped_counted_and_never_relayed(run):
     positions = ring(5) + [[ring(5)[0][0] + 0.9, 0.0]]  # the forger, id 5, next to robot 0 only
     sc = scenario(positions[:5], n_max=8)
@@ -417,12 +432,14 @@ def assert_removal(result, removed):
     assert result.passed, result.checks
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n,kill", [(8, 3), (6, 0)])
 def test_removal_by_silence_restores_biconnectivity_without_breaking_a_link(run, n, kill):
     result = run(removal_scenario(n, kill))
     assert_removal(result, kill)
 
 
+@pytest.mark.slow
 def test_removal_by_leave_message(run):
     result = run(removal_scenario(7, 2, leave=True))
     assert_removal(result, 2)
@@ -439,6 +456,7 @@ def join_scenario(base, start, region=0.0, placement="heuristic", n_max=8, ticks
             "checks": [{"use": "biconnectivity.join"}]}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("base,start,region", [
     (ring(5), [0.2, 0.3], 0.0),
     (ladder(3), [0.9, 0.45], 0.0),
@@ -459,6 +477,7 @@ def test_addition_two_neighbours_biconnected_near_best_heuristic(run, base, star
     assert result.passed, result.checks
 
 
+@pytest.mark.slow
 def test_addition_through_the_control_interface(tmp_path):
     """A robot added at run time by the world's ``control`` queryable joins like one from a scenario event."""
     import asyncio
@@ -475,7 +494,7 @@ def test_addition_through_the_control_interface(tmp_path):
 
     def on_open(world, link):
         async def drive():
-            while not world.started or world.tick < 3:
+            while not world.started or world.tick < 3:  # noqa: ASYNC110 — World offers no event per tick to await
                 await asyncio.sleep(0.001)
             ctl = world.keys.control
             answers.append(unpack(await link.query(ctl, pack({"cmd": "pause"}), timeout=10)))
@@ -525,6 +544,7 @@ def test_leader_distance_makes_the_ex_neighbours_biconnected(n, seed):
         assert not biconnected(adjacency(prox(pts, pos, d - 0.01), 0.6))
 
 
+@pytest.mark.slow  # no Zenoh, but about 3.5 s of grid search
 @settings(max_examples=15, deadline=None)
 @given(n=st.integers(2, 7), seed=st.integers(0, 10_000))
 def test_join_heuristic_within_95_percent_of_a_fine_grid(n, seed):
@@ -544,11 +564,41 @@ def test_join_heuristic_within_95_percent_of_a_fine_grid(n, seed):
 
 def test_validate_rejects_bad_parameters():
     v = Biconnectivity.validate
-    assert v({"N": 0}) and v({"c": 0}) and v({"region": 0.6, "range": 1.0}) and v({"initiator": "a"})
+    assert v({"N": 0}) and v({"c": 0}) and v({"region": 0.6}, {"range": 1.0}) and v({"initiator": "a"})
     assert v({"at": [1, 2], "initiator": 0}) and v({"joiner": True, "hello": 0}) and v({"leave": [1, 2]})
     assert v({"N": 10, "initiator": [0, 3], "at": [1, 5], "every": 40}) is None
+    assert v({"region": 0.6}, {"range": 1.5}) is None
 
 
+def test_range_and_dt_are_the_scenarios_not_parameters():
+    """The radio range and the tick length come from the scenario (ctx.range, ctx.dt), never from parameters."""
+    from swarmactors.scenario import ScenarioError, resolve_scenario
+
+    for key in ("range", "dt"):
+        with pytest.raises(ScenarioError, match=key):
+            resolve_scenario(scenario(ring(5), **{key: 1.0}), "<test>")
+    # regions that do not fit in the robot group's range: an error at load time, naming the range
+    sc = scenario(ring(5), region=0.3)
+    sc["robots"][0]["range"] = 0.5
+    with pytest.raises(ScenarioError, match="too large for the radio range 0.5"):
+        resolve_scenario(sc, "<test>")
+    sc["robots"][0]["range"] = 1.0
+    resolve_scenario(sc, "<test>")
+
+
+def test_a_robot_whose_range_cannot_hold_two_regions_fails_at_start():
+    """A robot added at run time (the control queryable) skips the loader: on_start fails it with the reason."""
+    from swarmactors.behavior import Context
+
+    ctx = Context(0, np.random.default_rng(0), "lockstep", dt=0.5, radio_range=0.5, sensing_range=0.5)
+    with pytest.raises(ValueError, match="too large for the radio range 0.5"):
+        Biconnectivity(region=0.3).on_start(ctx)
+    b = Biconnectivity(region=0.1)
+    b.on_start(ctx)
+    assert b.reach == pytest.approx(0.3) and b.d_step == pytest.approx(0.003) and b._tick_len(ctx) == 1.0
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["biconnectivity-check", "biconnected-removal", "biconnected-add-remove"])
 def test_shipped_scenarios_pass_their_checks(tmp_path, name):
     import tomllib

@@ -66,7 +66,7 @@ def brute_greedy(c: np.ndarray) -> dict[int, int]:
     out: dict[int, int] = {}
     while c.size and np.max(c) > 0:
         best = np.max(c)
-        i, j = min(zip(*np.nonzero(c == best)))
+        i, j = min(zip(*np.nonzero(c == best), strict=True))
         out[int(i)] = int(j)
         c[i, :] = 0.0
         c[:, j] = 0.0
@@ -99,6 +99,7 @@ def assert_rounds(result) -> None:
 
 
 # ------------------------------------------------------------------ lockstep, static, no loss
+@pytest.mark.slow
 @pytest.mark.parametrize("n,m,seed", [(1, 3, 1), (6, 3, 2), (10, 10, 3), (20, 35, 4), (40, 12, 5), (80, 80, 6)])
 def test_lockstep_equals_sequential_greedy_within_nmin_d_rounds(run, n, m, seed):
     result = run(cbaa_scenario(n, m, seed))
@@ -107,6 +108,7 @@ def test_lockstep_equals_sequential_greedy_within_nmin_d_rounds(run, n, m, seed)
     assert result.passed, result.checks
 
 
+@pytest.mark.slow
 def test_long_line_many_rounds(run):
     """A line has a large diameter: the N_min * D bound is exercised with many hops."""
     n = 15
@@ -118,6 +120,7 @@ def test_long_line_many_rounds(run):
     assert result.passed, result.checks
 
 
+@pytest.mark.slow
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(n=st.integers(1, 25), m=st.integers(1, 25), seed=st.integers(0, 10_000))
 def test_lockstep_property(run, n, m, seed):
@@ -127,6 +130,7 @@ def test_lockstep_property(run, n, m, seed):
     assert result.passed, result.checks
 
 
+@pytest.mark.slow
 def test_table_consensus_in_lockstep_also_reaches_greedy(run):
     result = run(cbaa_scenario(30, 20, 7, consensus="table"))
     assert {rep["mode"] for rep in result.reports("cbaa").values()} == {"table"}
@@ -134,6 +138,7 @@ def test_table_consensus_in_lockstep_also_reaches_greedy(run):
     assert result.passed, result.checks
 
 
+@pytest.mark.slow
 def test_equal_bids_go_to_the_lower_robot_id(run):
     positions = [[0.0, 0.0], [0.5, 0.0], [1.0, 0.0], [1.5, 0.0]]
     scores = [[1.0, 2.0, 0.5], [2.0, 2.0, 0.5], [2.0, 1.0, 0.0], [0.0, 0.0, 0.4]]
@@ -146,6 +151,7 @@ def test_equal_bids_go_to_the_lower_robot_id(run):
     assert result.check("cbaa.greedy")["passed"]
 
 
+@pytest.mark.slow
 def test_disconnected_components_allocate_independently(run):
     left = [[0.8 * i, 0.0] for i in range(4)]
     right = [[20.0 + 0.8 * i, 0.0] for i in range(3)]
@@ -159,6 +165,7 @@ def test_disconnected_components_allocate_independently(run):
 
 
 # ------------------------------------------------------------------ loss and realtime
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2])
 def test_lockstep_with_loss_still_reaches_greedy(run, seed):
     result = run(cbaa_scenario(30, 15, seed, loss=0.1))
@@ -167,6 +174,7 @@ def test_lockstep_with_loss_still_reaches_greedy(run, seed):
     assert result.passed, result.checks
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed,m", [(1, 10), (2, 25)])
 def test_realtime_with_jitter_and_loss_reaches_greedy(run, seed, m):
     """Stated time: settled within 2 s (40 ticks of 50 ms; measured 0.3-0.8 s), frames every tick, loss 0.1."""
@@ -200,6 +208,7 @@ class ForgeBids(Behavior):
             ctx.broadcast(KIND, [1, 2, 3])  # not a bid at all
 
 
+@pytest.mark.slow
 def test_malformed_bids_are_dropped_and_counted(run):
     positions = [[0.0, 0.0], [0.6, 0.0], [1.2, 0.0]]
     tasks = [[0.0, 0.5], [1.2, 0.5], [3.0, 0.0]]

@@ -219,7 +219,8 @@ def test_plugin_reads_the_family_from_the_marker_or_conformance_test(tmp_path):
     user = USER_TESTS.replace("def test_no_family", "def _unused")
     out = _pytest_user_file(tmp_path, user, "-k", "ring-8", "-rA")
     text = out.stdout + out.stderr
-    assert "test_flood_builtin[flooding/ring-8] PASSED" in text or "PASSED test_user.py::test_flood_builtin" in text, text
+    assert ("test_flood_builtin[flooding/ring-8] PASSED" in text
+            or "PASSED test_user.py::test_flood_builtin" in text), text
     assert "test_flood_mutant[flooding/ring-8]" in text and "1 failed, 1 passed" in text, text
     assert "flooding.not_to_sender" in text, text  # the oracle's report names the failed check
 

@@ -9,9 +9,13 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
+
 from swarmactors.launcher import new_run_id, run_world
 from swarmactors.scenario import resolve_scenario
 from transport import Endpoints, pack, unpack
+
+pytestmark = pytest.mark.slow  # every test runs a world over Zenoh (in process or as CLI processes)
 
 
 def test_control_pause_step_kill_and_move_are_applied_and_recorded(tmp_path):
@@ -29,7 +33,7 @@ def test_control_pause_step_kill_and_move_are_applied_and_recorded(tmp_path):
             async def ctl(cmd, **kw):
                 return unpack(await link.query(world.keys.control, pack({"cmd": cmd, **kw}), timeout=10))
 
-            while not world.started:
+            while not world.started:  # noqa: ASYNC110 — World offers no event for its start to await
                 await asyncio.sleep(0.01)
             seen["pause"] = await ctl("pause")
             await asyncio.sleep(0.3)

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import pytest
+
 from swarmactors.trace import verify
+
+pytestmark = pytest.mark.slow  # every test runs scenarios over Zenoh
 
 
 def lossy_flood(seed: int = 3) -> dict:
@@ -11,7 +15,8 @@ def lossy_flood(seed: int = 3) -> dict:
         "radio": {"range": 1.0, "latency": 1, "loss": 0.2},
         "world": {"bounds": [[0.0, 0.0], [3.0, 3.0]]},
         "robots": [{"count": 24, "placement": "uniform",
-                    "behaviors": [{"use": "flooding", "origin": 0, "at": 1, "expiry": 8}, {"use": "beacon", "every": 3}]}],
+                    "behaviors": [{"use": "flooding", "origin": 0, "at": 1, "expiry": 8},
+                                  {"use": "beacon", "every": 3}]}],
         "events": [{"at": 6, "kill": [5]}],
     }
 
@@ -48,5 +53,5 @@ def test_moving_robots_with_speed_limits_are_deterministic_across_processes(run)
     assert a["trace_hash"] == b["trace_hash"]
     first, last = a.record(0)["pos"], a.record(14)["pos"]
     assert first != last  # the robots did move
-    for r0, r1 in zip(first, last):
+    for r0, r1 in zip(first, last, strict=True):
         assert ((r1[1] - r0[1]) ** 2 + (r1[2] - r0[2]) ** 2) ** 0.5 <= 0.2 * 0.5 * 14 + 1e-6

@@ -18,7 +18,7 @@ from needs import require_docker
 
 REPO = Path(__file__).resolve().parents[1]
 COMPOSE_FILE = REPO / "docker" / "compose.yaml"
-pytestmark = pytest.mark.docker
+pytestmark = [pytest.mark.docker, pytest.mark.slow]  # builds images and runs worlds in containers
 
 
 @pytest.fixture(scope="session")

@@ -5,9 +5,13 @@ from __future__ import annotations
 import asyncio
 import time
 
+import pytest
+
 from swarmactors.launcher import new_run_id, run_world, spawn_hosts
 from swarmactors.scenario import resolve_scenario
 from transport import Endpoints
+
+pytestmark = pytest.mark.slow  # every test runs a world over Zenoh
 
 
 def beacons(n=16, ticks=12, events=(), clock="lockstep") -> dict:

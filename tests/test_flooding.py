@@ -9,6 +9,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+pytestmark = pytest.mark.slow  # every test runs scenarios over Zenoh
+
 
 def flood_scenario(n: int, seed: int, expiry=4, hops=None, loss=0.0, clock="lockstep", ticks=None) -> dict:
     side = math.sqrt(n / 2.5)  # about 3-4 neighbours in range 1 on average: sparse, multi-hop graphs

@@ -12,6 +12,8 @@ import pytest
 
 from needs import require_netns
 
+pytestmark = pytest.mark.slow  # starts a world and a host in network namespaces
+
 WORLD_ADDR = "10.231.0.1"
 HOST_ADDR = "10.231.0.2"
 

@@ -6,9 +6,13 @@ import asyncio
 import multiprocessing
 import time
 
+import pytest
+
 from swarmactors.launcher import new_run_id, run_world
 from swarmactors.scenario import resolve_scenario
 from transport import Endpoints, Keys, make_config
+
+pytestmark = pytest.mark.slow  # runs a world over Zenoh
 
 TICKS = 400
 SLEEP = 0.25  # seconds the viewer spends on each snapshot: 100 s if it held every tick back

@@ -8,6 +8,8 @@ from collections import defaultdict
 import numpy as np
 import pytest
 
+pytestmark = pytest.mark.slow  # every test runs scenarios over Zenoh
+
 
 def beacon_scenario(seed=1, loss=0.0, latency=1, ticks=12, clock="lockstep", extra_groups=(), **radio) -> dict:
     return {
@@ -29,9 +31,9 @@ def deliveries_by_frame(result) -> tuple[dict, dict, dict]:
     delivered = defaultdict(dict)
     dropped = defaultdict(dict)
     for rec in result.trace:
-        for src, seq, kind, dst, size in rec.get("sent", []):
+        for src, seq, _kind, _dst, _size in rec.get("sent", []):
             sent[(src, seq)] = rec["t"]
-        for src, seq, dst, sent_tick in rec.get("del", []):
+        for src, seq, dst, _sent_tick in rec.get("del", []):
             delivered[(src, seq)][dst] = rec["t"]
         for src, seq, dst, cause in rec.get("drop", []):
             dropped[(src, seq)][dst] = cause
@@ -76,11 +78,11 @@ def test_distance_model_loses_more_at_longer_distance(run):
     sent, delivered, dropped = deliveries_by_frame(result)
     pos = {row[0]: np.array(row[1:]) for row in result.record(0)["pos"]}
     near, far = [0, 0], [0, 0]
-    for (src, seq), dsts in dropped.items():
+    for (src, _seq), dsts in dropped.items():
         for dst, cause in dsts.items():
             if cause == "loss":
                 (near if np.linalg.norm(pos[src] - pos[dst]) < 0.5 else far)[0] += 1
-    for (src, seq), dsts in delivered.items():
+    for (src, _seq), dsts in delivered.items():
         for dst in dsts:
             (near if np.linalg.norm(pos[src] - pos[dst]) < 0.5 else far)[1] += 1
     near_rate = near[0] / sum(near)
@@ -102,7 +104,7 @@ def test_cut_partition_and_bandwidth(run):
             if 5 <= t < 8:
                 inside = {0, 1, 2, 3, 4}
                 assert (src in inside) == (dst in inside), (src, dst, t)
-        for dst, cause in dropped[(src, seq)].items():
+        for cause in dropped[(src, seq)].values():
             assert cause == "cut" and 2 <= t < 8
     after_heal = [(s, d) for (s, q), t in sent.items() if t >= 8 for d in delivered[(s, q)]]
     assert any(frozenset(p) in cut_pairs for p in after_heal) or not any(

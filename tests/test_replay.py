@@ -18,6 +18,8 @@ from swarmactors.scenario import resolve_scenario
 from swarmactors.viewer import ReplaySource, ViewerServer
 from transport import Endpoints, unpack
 
+pytestmark = pytest.mark.slow  # every test runs a world over Zenoh (or replays the trace of one)
+
 WALK = {
     "run": {"name": "walk", "seed": 9, "ticks": 30},
     "world": {"bounds": [[0.0, 0.0], [4.0, 4.0]]},
@@ -57,7 +59,7 @@ async def test_replay_shows_the_live_positions_at_intermediate_ticks(tmp_path):
 
         async def kill_later() -> None:  # pause, kill, resume: the kill lands mid-run whatever the speed
             assert (await control("run_to", tick=12))["ok"]
-            while world.tick < 11:
+            while world.tick < 11:  # noqa: ASYNC110 — World offers no event per tick to await
                 await asyncio.sleep(0.001)
             killed_at["reply"] = await control("kill", args=[4])
             assert (await control("resume"))["ok"]

@@ -22,6 +22,8 @@ import pytest
 
 from swarmactors.trace import read_trace, verify
 
+pytestmark = pytest.mark.slow  # every test runs a world over Zenoh
+
 TICKS = 10
 LINE = [[0.0, 0.0], [0.5, 0.0], [1.0, 0.0], [1.5, 0.0], [2.0, 0.0]]  # everyone hears everyone (range 2.5)
 VICTIM = 2
@@ -169,8 +171,11 @@ def test_step_that_never_ends_trips_the_watchdog_in_realtime(run):
 
 
 def test_run_with_host_processes_ends_with_no_robot_failed(run):
-    """When hosts leave after the last tick (their liveliness tokens vanish), that is the end
-    of the run, not a crash: no robot may be recorded as failed."""
+    """Hosts leaving after the last tick end the run; they are not a crash.
+
+    When hosts leave after the last tick (their liveliness tokens vanish), that is the end of the run,
+    not a crash: no robot may be recorded as failed.
+    """
     result = run(line_scenario({"use": "beacon", "size": 4}), processes=2)
     assert result["ticks"] == TICKS
     failed = {rid: r["failed"] for rid, r in result.robots.items() if r["failed"]}
@@ -197,8 +202,11 @@ behaviors = [{ use = "beacon" }]
 
 
 def _interrupt(tmp_path: Path, processes: int) -> tuple[subprocess.CompletedProcess | None, Path, str]:
-    """Start ``swarmactors run`` on a long scenario, wait until it ticks, send SIGINT to its
-    process group (what a terminal's Ctrl-C does), and wait for it to exit."""
+    """Interrupt ``swarmactors run`` on a long scenario as a terminal's Ctrl-C does.
+
+    Start it, wait until it ticks, send SIGINT to its process group (what a terminal's Ctrl-C does),
+    and wait for it to exit.
+    """
     (tmp_path / "long.toml").write_text(LONG)
     out = tmp_path / "out"
     proc = subprocess.Popen(

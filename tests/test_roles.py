@@ -112,6 +112,7 @@ def check_patrol(result, min_targets: int) -> None:
     assert all(end is not None and end - start <= 60 for _, start, end in info["episodes"]), info["episodes"]
 
 
+@pytest.mark.slow
 def test_patrol_10_for_2000_ticks_is_deterministic(run):
     raw = patrol_scenario(10, 1, 2000, checks=PATROL_CHECKS + [{"use": "roles.targets", "min_targets": 8}])
     result = run(raw)
@@ -120,6 +121,7 @@ def test_patrol_10_for_2000_ticks_is_deterministic(run):
     assert again["trace_hash"] == result["trace_hash"]
 
 
+@pytest.mark.slow
 def test_patrol_30_for_2000_ticks(run):
     raw = patrol_scenario(30, 2, 2000, checks=PATROL_CHECKS + [{"use": "roles.targets", "min_targets": 5}])
     check_patrol(run(raw), 5)
@@ -136,6 +138,7 @@ def test_patrol_placement_follows_the_paper():
 
 
 # ---------------------------------------------------------------- hand-overs under loss
+@pytest.mark.slow
 def test_handovers_under_loss_keep_one_leader_within_H(run):
     H = 3
     gaps = []
@@ -149,6 +152,7 @@ def test_handovers_under_loss_keep_one_leader_within_H(run):
 
 
 # ---------------------------------------------------------------- Algorithm 2 against the baseline (Sec. IV-A)
+@pytest.mark.slow
 def test_aat_baseline_is_the_gabriel_graph_and_proposed_a_cheaper_subset(run):
     res = {}
     for mode in ("proposed", "baseline"):
@@ -165,6 +169,7 @@ def test_aat_baseline_is_the_gabriel_graph_and_proposed_a_cheaper_subset(run):
     assert res["proposed"].check("roles.connectivity")["value"] <= res["baseline"].check("roles.connectivity")["value"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n,seed", [(20, 1), (40, 2)])
 def test_aat_forms_most_gabriel_edges_at_quiescence(run, n, seed):
     result = run(aat_scenario(n, seed, 160, walk_until=120, checks=[
@@ -175,6 +180,7 @@ def test_aat_forms_most_gabriel_edges_at_quiescence(run, n, seed):
 
 
 # ---------------------------------------------------------------- recovery (Sec. III-D, Fig. 2)
+@pytest.mark.slow
 def test_a_disconnected_explorer_walks_the_repeater_chain_back(run):
     raw = patrol_scenario(10, 1, 900, checks=[{"use": "roles.leader"}, {"use": "roles.gabriel"}])
     stray = copy.deepcopy(raw["robots"][1])
@@ -221,6 +227,7 @@ class Rogue(Behavior):
         return {"nacks": self.nacks}
 
 
+@pytest.mark.slow
 def test_bad_role_requests_are_refused_and_counted(run):
     raw = patrol_scenario(10, 1, 30, checks=[{"use": "roles.leader"}, {"use": "roles.chain"}])
     calm = run(raw).reports("roles")
@@ -253,9 +260,10 @@ def test_bad_parameters_are_scenario_errors(params, fragment):
 
 
 # ---------------------------------------------------------------- realtime
+@pytest.mark.slow
 def test_realtime_patrol_keeps_one_leader_and_gabriel_links(run):
     dt = 0.04
-    raw = patrol_scenario(10, 1, 150, clock="realtime", timestep=dt, checks=[
+    raw = patrol_scenario(10, 1, 150, clock="realtime", checks=[
         {"use": "roles.leader"}, {"use": "roles.chain"}, {"use": "roles.gabriel", "grace": 3}])
     raw["run"]["dt"] = dt
     raw["radio"].update({"latency_s": dt / 2, "latency_min_s": dt / 4})

@@ -20,6 +20,8 @@ import zenoh
 from swarmactors.host import RobotHost
 from transport import Endpoints, Keys, Link, QueryError, Security, ensure_files, make_config, pack, seal
 
+pytestmark = pytest.mark.slow  # every test runs a secure world and hosts over Zenoh
+
 TICKS = 50
 
 
@@ -85,7 +87,8 @@ async def rogue(endpoint, run_id, secure) -> dict:
         other_robot = next(r for r in range(6) if r != own_robot)
         for _ in range(3):
             # impersonation: a message on the victim's key, sealed with the rogue's own key
-            link.publish(keys.up(victim), seal(host.key, pack({"h": victim, "t": 3, "r": [[other_robot, [5.0, 0.0], [], None, None]]})))
+            link.publish(keys.up(victim),
+                         seal(host.key, pack({"h": victim, "t": 3, "r": [[other_robot, [5.0, 0.0], [], None, None]]})))
             # forged src: the rogue's own key and channel, but a robot it does not run
             link.publish(keys.up(host.name), seal(host.key, pack({"h": host.name, "t": 3, "r": [
                 [other_robot, [5.0, 0.0], [[None, "BEACON", 10**6, pack([0.0, b""]), []]], None, None]]})))

@@ -104,6 +104,7 @@ def assert_tables(result, rule=higher_id) -> None:
 
 
 # ------------------------------------------------------------------ lossless
+@pytest.mark.slow
 @pytest.mark.parametrize("n,seed", [(2, 1), (12, 2), (40, 3), (120, 4)])
 def test_lockstep_lossless_every_robot_holds_the_oracle_entry_within_hops(run, n, seed):
     rng = np.random.default_rng(seed)
@@ -124,6 +125,7 @@ def test_lockstep_lossless_every_robot_holds_the_oracle_entry_within_hops(run, n
     assert result.passed, result.checks
 
 
+@pytest.mark.slow
 @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(n=st.integers(2, 25), seed=st.integers(0, 10_000), count=st.integers(1, 10))
 def test_lockstep_lossless_property(run, n, seed, count):
@@ -133,6 +135,7 @@ def test_lockstep_lossless_property(run, n, seed, count):
     assert result.passed, result.checks
 
 
+@pytest.mark.slow
 def test_realtime_lossless_converges(run):
     n, seed = 25, 5
     writes = random_writes(np.random.default_rng(seed), n, 8, last=6)
@@ -144,6 +147,7 @@ def test_realtime_lossless_converges(run):
 
 
 # ------------------------------------------------------------------ conflicts
+@pytest.mark.slow
 @pytest.mark.parametrize("conflict,rule", [("higher_id", higher_id), ("lower_value", lower_value)])
 def test_concurrent_equal_timestamp_writes_resolve_to_one_winner(run, conflict, rule):
     n = 30
@@ -162,6 +166,7 @@ def test_concurrent_equal_timestamp_writes_resolve_to_one_winner(run, conflict, 
     assert result.passed, result.checks
 
 
+@pytest.mark.slow
 def test_lower_value_rule_keeps_the_lowest_value(run):
     writes = [{"at": 2, "robot": r, "key": "x", "value": v} for r, v in [(2, 5.5), (9, 1.25), (14, 9.0)]]
     result = run(vs_scenario(20, 9, writes, conflict="lower_value"))
@@ -173,6 +178,7 @@ def test_lower_value_rule_keeps_the_lowest_value(run):
 LINE = [[0.9 * i, 0.0] for i in range(8)]
 
 
+@pytest.mark.slow
 def test_delete_stays_deleted_with_tombstones(run):
     """The relay of the older PUT reaches the deleting robot after its delete and is ignored."""
     writes = [{"at": 1, "robot": 0, "key": "d", "value": 7}, {"at": 2, "robot": 0, "key": "d", "delete": True}]
@@ -185,6 +191,7 @@ def test_delete_stays_deleted_with_tombstones(run):
     assert buzz[0]["changed_at"]["d"] == 4  # Buzz: revived at 3 by the relay of the older PUT, nil again at 4
 
 
+@pytest.mark.slow
 def test_buzz_deletion_loses_a_write_after_delete(run):
     """Buzz drops a deleted entry: the next put restarts from the revived older entry and collides with the nil."""
     writes = [{"at": 1, "robot": 0, "key": "d", "value": 7}, {"at": 2, "robot": 0, "key": "d", "delete": True},
@@ -198,6 +205,7 @@ def test_buzz_deletion_loses_a_write_after_delete(run):
     assert ours.passed, ours.checks
 
 
+@pytest.mark.slow
 def test_write_after_delete_supersedes_the_tombstone(run):
     writes = [{"at": 1, "robot": 0, "key": "d", "value": 1}, {"at": 3, "robot": 2, "key": "d", "delete": True},
               {"at": 12, "robot": 7, "key": "d", "value": 3}]
@@ -207,6 +215,7 @@ def test_write_after_delete_supersedes_the_tombstone(run):
 
 
 # ------------------------------------------------------------------ components
+@pytest.mark.slow
 def test_a_robot_in_another_component_never_sees_the_writes(run):
     left = [[0.8 * i, 0.0] for i in range(5)]
     right = [[20.0 + 0.8 * i, 0.0] for i in range(5)]
@@ -222,6 +231,7 @@ def test_a_robot_in_another_component_never_sees_the_writes(run):
 
 
 # ------------------------------------------------------------------ loss and anti-entropy
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_loss_with_anti_entropy_converges(run, seed):
     n = 40
@@ -236,6 +246,7 @@ def test_loss_with_anti_entropy_converges(run, seed):
     assert digests > 0
 
 
+@pytest.mark.slow
 def test_loss_without_anti_entropy_can_leave_robots_behind_and_anti_entropy_fixes_it(run):
     n, seed = 40, 2
     writes = random_writes(np.random.default_rng(seed), n, 8)
@@ -245,6 +256,7 @@ def test_loss_without_anti_entropy_can_leave_robots_behind_and_anti_entropy_fixe
     assert repaired.passed, repaired.checks
 
 
+@pytest.mark.slow
 def test_realtime_loss_with_anti_entropy_converges(run):
     n, seed = 25, 6
     writes = random_writes(np.random.default_rng(seed), n, 6, last=6)
@@ -256,6 +268,7 @@ def test_realtime_loss_with_anti_entropy_converges(run):
 
 
 # ------------------------------------------------------------------ queries
+@pytest.mark.slow
 def test_get_of_an_unknown_key_is_relayed_once_per_robot(run):
     n = 30
     result = run(vs_scenario(n, 4, [], reads=[{"at": 2, "robot": 5, "key": "nobody"}], ticks=30))
@@ -265,6 +278,7 @@ def test_get_of_an_unknown_key_is_relayed_once_per_robot(run):
     assert reports[5]["reads"] == [[2, "nobody", None]]
 
 
+@pytest.mark.slow
 def test_get_pulls_an_entry_the_asker_missed(run):
     """A robot that joined the conversation late (all its PUTs lost) gets the key back through a query."""
     writes = [{"at": 1, "robot": 0, "key": "k", "value": 42}]
@@ -304,6 +318,7 @@ class ForgeVS(Behavior):
             ctx.broadcast(DIGEST, [0, [["k", -1, 2]]])  # a bad digest item
 
 
+@pytest.mark.slow
 def test_malformed_frames_are_dropped_and_counted(run):
     positions = [[0.0, 0.0], [0.5, 0.0], [1.0, 0.0]]
     sc = vs_scenario(3, 1, [{"at": 5, "robot": 0, "key": "good", "value": 1}], positions=positions, ticks=12)
@@ -430,6 +445,7 @@ def expected_winners(result) -> dict[str, int]:
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n,seed", [(5, 1), (40, 2), (100, 3)])
 def test_election_lowest_bid_wins_everywhere(run, n, seed):
     result = run(election_scenario(n, seed))
@@ -442,12 +458,14 @@ def test_election_lowest_bid_wins_everywhere(run, n, seed):
     assert result.passed, result.checks
 
 
+@pytest.mark.slow
 def test_election_with_loss_and_anti_entropy(run):
     result = run(election_scenario(40, 4, loss=0.3, anti_entropy=3))
     assert all(rep["elected"] == expected_winners(result) for rep in result.reports("election").values())
     assert result.passed, result.checks
 
 
+@pytest.mark.slow
 def test_election_realtime(run):
     result = run(election_scenario(30, 5, clock="realtime"))
     assert all(rep["elected"] == expected_winners(result) for rep in result.reports("election").values())

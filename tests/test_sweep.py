@@ -43,6 +43,7 @@ def _rows(path) -> list[dict]:
         return list(csv.DictReader(f))
 
 
+@pytest.mark.slow
 def test_sweep_rows_interruption_and_identical_resumption(tmp_path):
     scenario = tmp_path / "sw.toml"
     scenario.write_text(SCENARIO)
@@ -87,6 +88,7 @@ def test_sweep_rows_interruption_and_identical_resumption(tmp_path):
     assert (cut / "summary-radio.loss.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_sweep_refuses_a_directory_of_another_sweep(tmp_path, capsys):
     scenario = tmp_path / "sw.toml"
     scenario.write_text(SCENARIO.replace("ticks = 500", "ticks = 4"))

@@ -8,6 +8,8 @@ import pytest
 
 from tests_support_runs import small_flood
 
+pytestmark = pytest.mark.slow  # runs a world over Zenoh
+
 
 @pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full to simulate a full disk")
 def test_full_disk_for_trace_keeps_the_result(run, tmp_path):

@@ -16,14 +16,17 @@ import urllib.request
 from pathlib import Path
 
 import aiohttp
-from needs import require_browser
+import pytest
 
+from needs import require_browser
 from swarmactors.launcher import new_run_id
 from swarmactors.result import Result
 from swarmactors.scenario import resolve_scenario
 from swarmactors.trace import read_trace
 from swarmactors.viewer import ViewerServer, run_with_viewer
 from transport import Endpoints
+
+pytestmark = pytest.mark.slow  # every test runs a world over Zenoh, some a browser
 
 TESTS = Path(__file__).resolve().parent
 URL = re.compile(r"viewer: (http://127\.0\.0\.1:\d+/)")
@@ -299,7 +302,7 @@ async def test_pages_that_stall_or_leave_do_not_hold_the_run(tmp_path):
     frames: list[int] = []
 
     async def pages() -> None:
-        while not server.url:
+        while not server.url:  # noqa: ASYNC110 — ViewerServer offers no event for its start to await
             await asyncio.sleep(0.01)
         async with aiohttp.ClientSession() as http:
             stalled = await _raw_websocket(server.url)  # never reads a byte

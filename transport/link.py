@@ -125,7 +125,13 @@ class Link:
             self.session.declare_queryable(key, zenoh.handlers.Callback(on_query, indirect=False))
         )
 
-    async def query(self, key: str, payload: bytes = b"", *, timeout: float = 10.0) -> bytes:
+    async def query(
+        self,
+        key: str,
+        payload: bytes = b"",
+        *,
+        timeout: float = 10.0,  # noqa: ASYNC109 — Zenoh's own query timeout (session.get), not a cancel scope
+    ) -> bytes:
         """Send a query and return the first reply's payload (``QueryError`` if none)."""
         loop = self.loop
         future: asyncio.Future = loop.create_future()
@@ -152,7 +158,13 @@ class Link:
         result = await future
         return result
 
-    async def query_all(self, key: str, payload: bytes = b"", *, timeout: float = 3.0) -> list[bytes]:
+    async def query_all(
+        self,
+        key: str,
+        payload: bytes = b"",
+        *,
+        timeout: float = 3.0,  # noqa: ASYNC109 — Zenoh's own query timeout (session.get): how long replies may come
+    ) -> list[bytes]:
         """Send a query (``key`` may hold wildcards) and return every successful reply's payload.
 
         Waits until every matching queryable answered or ``timeout`` passed; an

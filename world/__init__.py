@@ -1,6 +1,7 @@
 """The world process: clock, kinematics, radio medium, sensing, faults, registry."""
 
-from world.radio import DROP_CAUSES, Medium, Outgoing, RadioConfig
+from transport.messages import DROP_CAUSES
+from world.radio import Medium, Outgoing, RadioConfig
 from world.registry import Robots
 from world.world import POS_DIGITS, World
 

@@ -31,8 +31,6 @@ import numpy as np
 
 from world import rng
 
-DROP_CAUSES = ("range", "loss", "cut", "bandwidth", "dead", "malformed")
-
 
 @dataclass
 class RadioConfig:

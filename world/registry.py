@@ -21,6 +21,8 @@ class HostEntry:
     alive: bool = True
     reported: bool = False  # final reports received
     key: bytes = b""  # per-host uplink authentication key (transport.auth)
+    pending_dead: list[int] = field(default_factory=list)  # robots that died since its last inputs
+    pending_new: list = field(default_factory=list)  # RobotDescr of robots given to it since then
 
 
 class Robots:
@@ -64,7 +66,7 @@ class Robots:
         self.speed = np.concatenate([self.speed, col("speed", np.inf)])
         self.turn_rate = np.concatenate([self.turn_rate, col("turn_rate", np.inf)])
         self.noise = np.concatenate([self.noise, col("noise", 0.0)])
-        for rid, s in zip(ids, specs):
+        for rid, s in zip(ids, specs, strict=True):
             self.spec.append({**s, "id": rid})
             self.host.append(None)
             self.status.append({})

@@ -85,23 +85,23 @@ class RoleSwitching(Behavior, _Timed):
     kinds = KINDS
     plot_field = "rc"  # role code: 0 base station, 1 repeater, 2 local leader, 3 explorer
 
-    def __init__(self, leader: int, base: int = 0, targets: list | dict | None = None, d_c: float = 1.5,
-                 d_s: float | None = None, eta_a: float = 0.8, eta_b: float = 0.15, eta_c: int = 3, aat: str = PROPOSED,
-                 k1: float = 0.05, k2: float = 0.1, k3: float = 0.02, k4: float = 0.1, k5: float = 0.5,
-                 k6: float = 0.05, k7: float = 0.5, k8: float = 0.02, d_n: float = 0.6, vmax: float = 0.03,
-                 timestep: float = 1.0, expiry: int = 15, lost_after: int = 8, help_every: int = 5,
-                 target_every: int = 10, arrive: float = 0.1, switch_delay: int = 3, lease: int = 6,
-                 hold: float = 0.9, margin: float = 0.05):
+    def __init__(self, leader: int, base: int = 0, targets: list | dict | None = None, eta_a: float = 0.8,
+                 eta_b: float = 0.15, eta_c: int = 3, aat: str = PROPOSED, k1: float = 0.05, k2: float = 0.1,
+                 k3: float = 0.02, k4: float = 0.1, k5: float = 0.5, k6: float = 0.05, k7: float = 0.5,
+                 k8: float = 0.02, d_n: float = 0.6, vmax: float = 0.03, expiry: int = 15, lost_after: int = 8,
+                 help_every: int = 5, target_every: int = 10, arrive: float = 0.1, switch_delay: int = 3,
+                 lease: int = 6, hold: float = 0.9, margin: float = 0.05):
         self.leader, self.base = leader, base
         self.targets_param = targets
-        self.d_c, self.eta_a, self.eta_b, self.eta_c = float(d_c), eta_a, eta_b, eta_c
+        self.eta_a, self.eta_b, self.eta_c = eta_a, eta_b, eta_c
         self.k = (None, k1, k2, k3, k4, k5, k6, k7, k8)
-        self.d_n, self.vmax, self.timestep = d_n, vmax, timestep
+        self.d_n, self.vmax = d_n, vmax
         self.expiry, self.lost_after, self.help_every, self.target_every = expiry, lost_after, help_every, target_every
         self.arrive, self.switch_delay, self.lease, self.hold = arrive, switch_delay, lease, hold
         self.margin = margin
-        self.d_s = float(d_s) if d_s is not None else self.d_c
-        self.conn = Connections(aat, eta_c, min(self.d_s, self.d_c))
+        # the paper's d_c and d_s are the robot's radio and sensing ranges: read from the context in on_start
+        self.d_c = self.d_s = math.nan
+        self.conn = Connections(aat, eta_c, math.nan)
         self.role = EX
         self.role_changed = True  # Algorithm 2 line 4: the first tick counts as a change
         self.parent: int | None = None
@@ -167,9 +167,7 @@ class RoleSwitching(Behavior, _Timed):
                 return f"{key} = {params[key]!r} must be a robot id (non-negative integer)"
         if params.get("leader") == params.get("base", 0):
             return "the base station cannot be the initial local leader"
-        if params.get("d_s") is not None and (not _num(params["d_s"]) or params["d_s"] <= 0):
-            return f"d_s = {params['d_s']!r} must be a positive number"
-        for key in ("d_c", "eta_a", "eta_b", "vmax", "timestep", "d_n", "arrive", "hold"):
+        for key in ("eta_a", "eta_b", "vmax", "d_n", "arrive", "hold"):
             if key in params and (not _num(params[key]) or params[key] <= 0):
                 return f"{key} = {params[key]!r} must be a positive number"
         for key in ("eta_a", "eta_b", "hold"):
@@ -260,6 +258,8 @@ class RoleSwitching(Behavior, _Timed):
     # ---------------------------------------------------------- start
     def on_start(self, ctx: Context) -> None:
         self.id = ctx.id
+        self.d_c, self.d_s = ctx.range, ctx.sensing  # the scenario's ranges (the robot group's range, sensing)
+        self.conn.d_c = min(self.d_s, self.d_c)  # links need both: sensed (R_k, R_l) and within radio range
         self._sensed_ids: list[int] = []
         self._sensed_index: dict[int, int] = {}
         self._sensed_pos = np.zeros((0, 2))
@@ -552,7 +552,7 @@ class RoleSwitching(Behavior, _Timed):
         else:
             self._tick_explorer(ctx, x)
         if self.role != BS:
-            ctx.move((self.u / self.timestep).tolist())
+            ctx.move((self.u / ctx.dt).tolist())  # u is per tick (the paper's timestep), velocity per second
         self._send_state(ctx, x)
         if ctx.tick % 20 == 0 and self.seen:
             self.seen = {k: dl for k, dl in self.seen.items() if dl >= ctx.now}
@@ -919,10 +919,9 @@ class AATWalk(Behavior, _Timed):
     kinds = (CONNECT, DISCONNECT)
     plot_field = "degree"
 
-    def __init__(self, mode: str = PROPOSED, d_c: float = 3.0, eta_c: int = 3, step: float = 1.0,
-                 walk_until: int | None = None, timestep: float = 1.0):
-        self.mode, self.step, self.walk_until, self.timestep = mode, step, walk_until, timestep
-        self.conn = Connections(mode, eta_c, float(d_c))
+    def __init__(self, mode: str = PROPOSED, eta_c: int = 3, step: float = 1.0, walk_until: int | None = None):
+        self.mode, self.step, self.walk_until = mode, step, walk_until
+        self.conn = Connections(mode, eta_c, math.nan)  # d_c from the context in on_start
         self.first = True
         self.frame_cpu = 0.0
         self.received = 0
@@ -934,12 +933,14 @@ class AATWalk(Behavior, _Timed):
     def validate(params: dict) -> str | None:
         if params.get("mode", PROPOSED) not in MODES:
             return f"mode = {params.get('mode')!r} must be one of {MODES}"
-        for key in ("d_c", "step", "timestep"):
-            if key in params and (not _num(params[key]) or params[key] <= 0):
-                return f"{key} = {params[key]!r} must be a positive number"
+        if "step" in params and (not _num(params["step"]) or params["step"] <= 0):
+            return f"step = {params['step']!r} must be a positive number"
         if "eta_c" in params and (not _int(params["eta_c"]) or params["eta_c"] < 0):
             return f"eta_c = {params['eta_c']!r} must be a non-negative integer"
         return None
+
+    def on_start(self, ctx: Context) -> None:
+        self.conn.d_c = min(ctx.sensing, ctx.range)  # the paper's d_c = d_s: the robot's sensing and radio ranges
 
     def on_frame(self, ctx: Context, frame: Frame) -> None:
         self.received += 1
@@ -965,7 +966,7 @@ class AATWalk(Behavior, _Timed):
                     ctx.send(j, DISCONNECT, {"r": EX, "why": "aat"})
         if self.walk_until is None or ctx.tick < self.walk_until:
             a = float(ctx.rng.uniform(0.0, 2 * math.pi))
-            ctx.move([self.step * math.cos(a) / self.timestep, self.step * math.sin(a) / self.timestep])
+            ctx.move([self.step * math.cos(a) / ctx.dt, self.step * math.sin(a) / ctx.dt])  # a step per tick
         else:
             ctx.move([0.0, 0.0])
         ctx.set_status(role=EX, conn=sorted(self.conn.links), degree=len(self.conn.links))

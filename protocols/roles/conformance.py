@@ -17,7 +17,7 @@ def _patrol(name: str, n: int, seed: int, ticks: int, checks: list[dict], **kw) 
 
 def _realtime(name: str, n: int, seed: int, ticks: int, dt: float = 0.04) -> Case:
     case = _patrol(name, n, seed, ticks, [{"use": "roles.leader"}, {"use": "roles.chain"},
-                                          {"use": "roles.gabriel", "grace": 3}], clock="realtime", timestep=dt)
+                                          {"use": "roles.gabriel", "grace": 3}], clock="realtime")
     sc = case.scenario
     sc["run"]["dt"] = dt
     sc["radio"].update({"latency_s": dt / 2, "latency_min_s": dt / 4})

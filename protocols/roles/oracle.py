@@ -179,6 +179,16 @@ def _radio_range(result: Result) -> float:
     return float(min(result.ranges().values()))
 
 
+def _link_range(result: Result, name: str) -> float:
+    """The longest link the robots running ``name`` may hold: min of their radio range d_c and sensing range d_s.
+
+    The behaviour reads both from its context (the robot group's ``range`` and ``sensing``).
+    """
+    robots = result.robots
+    return float(min((min(robots[r]["range"], robots[r]["sensing"]) for r in result.reports(name)),
+                     default=_radio_range(result)))
+
+
 # ------------------------------------------------------------------ checks
 def leader(result: Result, settle: int = 0, name: str | None = None) -> Outcome:
     """Exactly one local leader at every tick from ``settle`` on."""
@@ -265,8 +275,7 @@ def gabriel(result: Result, grace: int = 2, min_formed: float = 0.0, exact: bool
     * with ``exact``, ``roles.gabriel_exact``: the links equal the Gabriel graph at every tick (the baseline).
     """
     nm = _name(result, name)
-    par = params(result, nm)
-    d_c = min(float(par["d_c"]), float(par.get("d_s") or par["d_c"]))  # links are at most d_s long
+    d_c = _link_range(result, nm)
     cross_grace = grace if cross_grace is None else cross_grace
     views: list[tuple[int, dict, dict, dict]] = []  # (t, pos, role, {i: (conn, parent)})
     for t, pos, st in timeline(result):
@@ -394,7 +403,8 @@ def disconnections(result: Result, max_recovery: int | None = None, settle: int 
                    detail=f"{len(eps)} disconnections, mean length {np.mean(closed) if closed else 0:.1f} ticks, "
                           f"{sum(e[2] is None for e in eps)} open at the end, {swarm} ticks with a robot "
                           f"disconnected",
-                   first_tick=next((e[1] for e, n in zip(eps, lengths) if max_recovery and n > max_recovery), None))
+                   first_tick=next((e[1] for e, n in zip(eps, lengths, strict=True)
+                                    if max_recovery and n > max_recovery), None))
 
 
 def targets(result: Result, min_targets: int = 0, name: str | None = None) -> Outcome:

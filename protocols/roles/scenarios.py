@@ -61,16 +61,18 @@ def patrol_targets(n: int, seed: int, count: int = 60, digits: int = 4) -> list[
 
 def patrol_scenario(n: int = 10, seed: int = 1, ticks: int = 2000, loss: float = 0.0, clock: str = "lockstep",
                     checks: list[dict] | None = None, name: str | None = None, trace: bool = True,
-                    **params) -> dict:
+                    d_c: float = D_C, d_s: float | None = None, **params) -> dict:
     """Return the patrol of Sec. IV-B as a scenario.
 
     Robot 0 is the base station (alone in the first group, with the
-    target list), robots 1..n-1 the swarm. ``params`` go to every robot's ``roles`` behaviour.
+    target list), robots 1..n-1 the swarm. ``d_c`` is the radio range (``radio.range`` and the groups'
+    ``range``), ``d_s`` the groups' ``sensing`` (default d_c): the robots read both from their context.
+    ``params`` go to every robot's ``roles`` behaviour.
     """
-    d_c = float(params.get("d_c", D_C))
-    d_s = float(params.get("d_s") or d_c)
+    d_c = float(d_c)
+    d_s = float(d_s or d_c)
     pts, leader = patrol_placement(n, seed, d_c)
-    beh = {"use": "roles", "leader": leader, "base": 0, "d_c": d_c, **params}
+    beh = {"use": "roles", "leader": leader, "base": 0, **params}
     group = {"range": d_c, "sensing": d_s, "speed": SPEED, "turn_rate": TURN}
     return {
         "run": {"name": name or f"roles-patrol-{n}", "seed": seed, "clock": clock, "ticks": ticks, "dt": 1.0,
@@ -91,10 +93,11 @@ def aat_scenario(n: int = 20, seed: int = 1, ticks: int = 1000, mode: str = "pro
     """Return the preliminary experiment of Sec. IV-A as a scenario.
 
     n explorers uniform in a sqrt(n) x sqrt(n) field, random walk
-    of step ``step`` per tick in a uniform direction, d_c = d_s = 3, eta_c = 3.
+    of step ``step`` per tick in a uniform direction, d_c = d_s = 3 (the robots' radio and sensing ranges,
+    which they read from their context), eta_c = 3.
     """
     side = math.sqrt(n)
-    beh = {"use": "aat", "mode": mode, "d_c": d_c, "eta_c": eta_c, "step": step}
+    beh = {"use": "aat", "mode": mode, "eta_c": eta_c, "step": step}
     if walk_until is not None:
         beh["walk_until"] = walk_until
     return {

@@ -1,0 +1,127 @@
+"""Wire messages (transport/messages.py).
+
+Typed decoding that names the failing field, round trips, and the world actions' validation shared by
+scenarios and the control queryable.
+"""
+
+from __future__ import annotations
+
+import msgpack
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from transport import MalformedMessage
+from transport.messages import (
+    ACTIONS,
+    Ack,
+    Deliveries,
+    Delivery,
+    Downlink,
+    FrameIn,
+    FrameOut,
+    Inputs,
+    JoinReply,
+    JoinRequest,
+    RobotDescr,
+    RobotIn,
+    RobotOut,
+    RunInfo,
+    Stop,
+    Uplink,
+    action_problem,
+    decode,
+    encode,
+)
+
+
+def raw(obj) -> bytes:
+    return msgpack.packb(obj, use_bin_type=True)
+
+
+def test_uplink_round_trip_and_short_wire_names():
+    up = Uplink("h0", 3, [RobotOut(2, [0.1, 0.0], [FrameOut(None, "K", 1, b"\x01", [4])], {"role": "x"}, None)])
+    data = encode(up)
+    assert decode(data, Uplink, what="uplink") == up
+    plain = msgpack.unpackb(data, raw=False)
+    assert plain == {"h": "h0", "t": 3, "r": [[2, [0.1, 0.0], [[None, "K", 1, b"\x01", [4]]], {"role": "x"}, None]]}
+
+
+@pytest.mark.parametrize("bad,field", [
+    ({"h": "h0", "t": "soon"}, "$.t"),
+    ({"h": "h0", "t": True}, "$.t"),
+    ({"t": 1}, "h"),
+    ({"h": "h0", "t": 1, "r": {"0": []}}, "$.r"),
+    ({"h": "h0", "t": 1, "r": [[-1, None, [], None, None]]}, "$.r[0][0]"),
+    ({"h": "h0", "t": 1, "r": [[0, None, [[None, "", 1, b"", []]], None, None]]}, "$.r[0][2][0][1]"),
+    ({"h": "h0", "t": 1, "r": [[0, None, [[None, "K", 2**63, b"", []]], None, None]]}, "$.r[0][2][0][2]"),
+    ({"h": "h0", "t": 1, "r": [[0, None, [[None, "K", 1, "text", []]], None, None]]}, "$.r[0][2][0][3]"),
+    ({"h": "h0", "t": 1, "r": [[0, None, [], {1: "a"}, None]]}, "$.r[0][3]"),
+    ({"h": "h0", "t": 1, "extra": 1}, "extra"),
+])
+def test_bad_uplinks_are_refused_naming_the_field(bad, field):
+    with pytest.raises(MalformedMessage) as err:
+        decode(raw(bad), Uplink, what="uplink from h0")
+    assert "uplink from h0" in str(err.value) and field in str(err.value), str(err.value)
+
+
+def test_downlink_is_one_of_inputs_deliveries_stop_ack():
+    inputs = Inputs(4, 4.0, [RobotIn(1, [0.0, 0.0, 0.0], ([2], [1.0, 0.0]), [0], None)],
+                    [FrameIn(2, "K", 1, b"\x00", 3.0)], {"target": [1.0, 1.0]})
+    for msg in (inputs, Deliveries([Delivery(1, 2, "K", 1, b"\x00", 0.5)]), Stop(4, gone=True), Ack(1.5)):
+        assert decode(encode(msg), Downlink, what="downlink") == msg
+    with pytest.raises(MalformedMessage):
+        decode(raw({"t": 1}), Downlink, what="downlink")  # no tag
+
+
+def test_join_messages():
+    assert decode(raw({}), JoinRequest, what="join").count is None
+    for bad in ({"count": 0}, {"count": -3}, {"count": "all"}, {"count": True}, [1, 2]):
+        with pytest.raises(MalformedMessage):
+            decode(raw(bad), JoinRequest, what="join")
+    reply = JoinReply("h0", b"k" * 32, 2, [RobotDescr(0, [0.0, 0.0, 0.0], [{"use": "beacon"}], "ground", 1.0, 1.0,
+                                                      0.5)], RunInfo("lockstep", 1.0, 3, 10, 10.0, 0))
+    assert decode(encode(reply), JoinReply, what="join reply") == reply
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.binary(max_size=80))
+def test_any_bytes_decode_or_raise_malformed(data):
+    for kind in (Uplink, Downlink, JoinRequest):
+        try:
+            decode(data, kind, what="fuzz")
+        except MalformedMessage:
+            pass
+
+
+def test_every_action_has_a_shape_and_valid_examples_pass():
+    valid = {"kill": [1, 2], "kill_fraction": 0.5, "add": [{"pos": [1.0, 2.0]}], "cut": [[0, 1]],
+             "restore": [[0, 1]], "partition": [[0], [1, 2]], "heal": True, "loss": 0.1,
+             "move": {"object": "target", "pos": [1.0, 1.0]}, "stop": True}
+    assert set(valid) == set(ACTIONS)
+    for name, value in valid.items():
+        assert action_problem({name: value}, robots=3, dims=2, objects={"target"}) is None, name
+    assert action_problem({"kill": 0}, robots=3) is None
+
+
+@pytest.mark.parametrize("action,words", [
+    ({"explode": True}, "unknown command"),
+    ({"kill": "all"}, "robot id"),
+    ({"kill": []}, "robot id"),
+    ({"kill": True}, "robot id"),
+    ({"kill": [5]}, "no robot 5"),
+    ({"loss": 2.0}, "[0, 1]"),
+    ({"kill_fraction": "half"}, "[0, 1]"),
+    ({"cut": [[0, "a"]]}, "pairs"),
+    ({"cut": [[0, 1, 2]]}, "pairs"),
+    ({"partition": 5}, "lists of robot ids"),
+    ({"add": [{"pos": "here"}]}, "pos"),
+    ({"add": [{"pos": [float("nan"), 0.0]}]}, "finite"),
+    ({"move": {"object": "nowhere", "pos": [0.0, 0.0]}}, "no object"),
+    ({"move": {"object": "target", "pos": "there"}}, "object = name"),
+    ({"heal": False}, "must be true"),
+    ({"kill": [1], "loss": 0.1}, "unknown command"),
+])
+def test_bad_actions_are_refused_with_a_reason(action, words):
+    problem = action_problem(action, robots=3, dims=2, objects={"target"})
+    assert problem is not None and words in problem, problem

@@ -1,0 +1,328 @@
+"""One definition of every wire message between the world, robot hosts and observers.
+
+Each message is a msgspec ``Struct``: decoding is typed and validated in one pass, and a bad message
+raises ``MalformedMessage`` naming the failing field (``$.r[0].frames[1].seq``). The world, the host,
+the scenario's ``[[events]]``, the ``control`` queryable and the viewer all use these definitions; no
+other module builds or takes a wire message apart by position.
+
+Frame bodies stay the msgpack bytes the sending robot's host produced (``FrameOut.body``): the world routes
+a frame by its header, counts the body's size in the bandwidth cap and the trace, and never decodes it.
+
+Wire names are short (a step crosses Zenoh every tick); attribute names say what they hold.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any
+
+import msgspec
+
+from transport.codec import MalformedMessage
+
+INT64 = 1 << 63
+PROTOCOL_VERSION = 2
+
+# Why the world did not deliver a frame to a robot (or refused a message): the counters, result.json,
+# the trace, the sweep CSV and the viewer all use these names.
+DROP_CAUSES = ("range", "loss", "cut", "bandwidth", "dead", "malformed")
+
+RobotId = Annotated[int, msgspec.Meta(ge=0, le=INT64 - 1)]
+Seq = Annotated[int, msgspec.Meta(ge=0, le=INT64 - 1)]
+Kind = Annotated[str, msgspec.Meta(min_length=1, max_length=64)]
+HostName = Annotated[str, msgspec.Meta(min_length=1, max_length=64)]
+
+
+class _Message(msgspec.Struct, forbid_unknown_fields=True, omit_defaults=True):
+    """Base: unknown fields are errors; defaults are not sent."""
+
+
+class _Row(msgspec.Struct, array_like=True, forbid_unknown_fields=True):
+    """Base of the positional rows inside a message (one per robot or frame): compact on the wire."""
+
+
+# ----------------------------------------------------------------- joining
+class JoinRequest(_Message):
+    """A host asks for robots: ``count`` of them (None: every unclaimed one)."""
+
+    count: Annotated[int, msgspec.Meta(ge=1)] | None = None
+
+
+class RobotDescr(_Message):
+    """A robot handed to a host: its id, initial pose, behaviour specs and radio/sensing parameters."""
+
+    id: RobotId
+    pose: list[float]
+    behaviors: list[dict[str, Any]]
+    kind: str
+    range: float
+    sensing: float
+    speed: float
+
+
+class RunInfo(_Message):
+    """What a host must know of the run: clock, tick length, seed, length, watchdog, current tick."""
+
+    clock: str
+    dt: float
+    seed: int
+    ticks: int
+    watchdog_s: float
+    tick: int
+
+
+class JoinReply(_Message):
+    """The world's answer to a join: the host's name and uplink key, its robots, the run."""
+
+    host: HostName
+    key: bytes
+    version: int
+    robots: list[RobotDescr]
+    run: RunInfo
+
+
+# ----------------------------------------------------------------- host -> world
+class FrameOut(_Row):
+    """A frame a robot radios: ``dst`` None is a broadcast (minus ``exclude``); ``body`` is packed msgpack."""
+
+    dst: RobotId | None
+    kind: Kind
+    seq: Seq
+    body: bytes
+    exclude: list[RobotId]
+
+
+class RobotOut(_Row):
+    """One robot's outputs of a step: velocity command, frames, status changes, and its error if it crashed."""
+
+    id: RobotId
+    velocity: list[float] | None
+    frames: list[FrameOut]
+    status: dict[str, Any] | None
+    error: str | None
+
+
+class Uplink(_Message):
+    """A host's message to the world (sealed with the host's key).
+
+    In lockstep it is the step query of tick ``tick`` (-1: registration); in realtime a put of frames sent
+    now. ``reports`` (robot id -> report) comes once, at the end.
+    """
+
+    host: HostName = msgspec.field(name="h")
+    tick: int = msgspec.field(name="t")
+    robots: list[RobotOut] = msgspec.field(name="r", default_factory=list)
+    reports: dict[int, Any] | None = msgspec.field(name="rep", default=None)
+
+
+# ----------------------------------------------------------------- world -> host
+class FrameIn(_Row):
+    """A delivered frame in a host's frame table: sender, kind, seq, packed body, send tick or time."""
+
+    src: int
+    kind: str
+    seq: int
+    body: bytes
+    sent: float
+
+
+class RobotIn(_Row):
+    """One robot's inputs of a tick.
+
+    Its pose, the robots it senses (ids and their positions, flattened), its inbox (indices into the host's
+    frame table) and the names of the objects it knows (None: all of them).
+    """
+
+    id: int
+    pose: list[float]
+    sensed: tuple[list[int], list[float]]
+    inbox: list[int]
+    objects: list[str] | None = None
+
+
+class Inputs(msgspec.Struct, tag="in", forbid_unknown_fields=True, omit_defaults=True):
+    """A tick's inputs for one host.
+
+    Each frame body travels once per host (``frames``), however many of its robots receive it.
+    ``dead`` and ``new`` change the host's robots; ``epoch`` is the realtime clock's start (wall time).
+    """
+
+    tick: int = msgspec.field(name="t")
+    now: float = 0.0
+    robots: list[RobotIn] = msgspec.field(name="r", default_factory=list)
+    frames: list[FrameIn] = msgspec.field(default_factory=list)
+    objects: dict[str, list[float]] = msgspec.field(default_factory=dict)
+    epoch: float | None = None
+    dead: list[int] = msgspec.field(default_factory=list)
+    new: list[RobotDescr] = msgspec.field(default_factory=list)
+
+
+class Delivery(_Row):
+    """Realtime: one frame for one robot, delivered now."""
+
+    dst: int
+    src: int
+    kind: str
+    seq: int
+    body: bytes
+    sent: float
+
+
+class Deliveries(msgspec.Struct, tag="d", forbid_unknown_fields=True):
+    """Realtime: frames whose latency has just elapsed, for the host's robots."""
+
+    items: list[Delivery]
+
+
+class Stop(msgspec.Struct, tag="stop", forbid_unknown_fields=True, omit_defaults=True):
+    """The run is over: send the final reports (``gone``: this host was declared lost; ``bye``: nothing more)."""
+
+    tick: int = msgspec.field(name="t", default=0)
+    gone: bool = False
+    bye: bool = False
+
+
+class Ack(msgspec.Struct, tag="ack", forbid_unknown_fields=True):
+    """Realtime: the world took an uplink; ``epoch`` is the clock's start (0 before the run starts)."""
+
+    epoch: float
+
+
+Downlink = Inputs | Deliveries | Stop | Ack
+
+
+# ----------------------------------------------------------------- observers
+class State(_Message):
+    """A snapshot on the ``state`` stream (observers may miss some)."""
+
+    tick: int = msgspec.field(name="t")
+    pos: list[list[float]]
+    status: dict[int, dict[str, Any]]
+    ranges: list[float]
+    objects: dict[str, list[float]]
+    dropped: dict[str, int]
+    sent: int
+
+
+# ----------------------------------------------------------------- control and events
+class ControlCommand(_Message):
+    """A command on the ``control`` queryable: a clock command, ``status``, or an action (see ``ACTIONS``)."""
+
+    cmd: str
+    args: Any = True
+    tick: Any = None
+
+
+CLOCK_COMMANDS = ("status", "pause", "resume", "step", "run_to")
+
+Probability = Annotated[float, msgspec.Meta(ge=0.0, le=1.0)]
+Pair = Annotated[list[RobotId], msgspec.Meta(min_length=2, max_length=2)]
+Point = Annotated[list[float], msgspec.Meta(min_length=1, max_length=3)]
+
+
+class MoveArgs(_Message):
+    """Move a named object (a target) to ``pos``."""
+
+    object: str
+    pos: Point
+
+
+class AddedRobot(msgspec.Struct, omit_defaults=True):
+    """A robot to add: a position, plus any robot-group parameters (range, behaviours, ...)."""
+
+    pos: Point
+
+
+# Every fault/world action, from a scenario's [[events]] or the control queryable: name -> argument type.
+ACTIONS: dict[str, Any] = {
+    "kill": RobotId | Annotated[list[RobotId], msgspec.Meta(min_length=1)],
+    "kill_fraction": Probability,
+    "add": Annotated[list[dict[str, Any]], msgspec.Meta(min_length=1)],
+    "cut": list[Pair],
+    "restore": list[Pair],
+    "partition": list[list[RobotId]],
+    "heal": bool,
+    "loss": Probability,
+    "move": MoveArgs,
+    "stop": bool,
+}
+# What each action expects, in words (error messages).
+ACTION_SHAPES = {
+    "kill": "a robot id or a list of robot ids",
+    "kill_fraction": "a number in [0, 1]",
+    "add": "a list of robot specs, each with pos = [x, y]",
+    "cut": "a list of [a, b] robot id pairs",
+    "restore": "a list of [a, b] robot id pairs",
+    "partition": "a list of lists of robot ids",
+    "heal": "true",
+    "loss": "a number in [0, 1]",
+    "move": "{object = name, pos = [x, y]}",
+    "stop": "true",
+}
+
+
+def action_problem(action: dict, *, robots: int | None = None, dims: int = 3,
+                   objects: set[str] | None = None) -> str | None:
+    """Why ``action`` (``{name: argument}``) is not a valid world action, or None.
+
+    ``robots`` (how many exist), ``dims`` and ``objects`` add the checks that need the world's state;
+    None skips them (a scenario checks robot ids against the robots that exist at the event's tick).
+    """
+    if not isinstance(action, dict) or len(action) != 1 or next(iter(action)) not in ACTIONS:
+        names = sorted(action) if isinstance(action, dict) else action
+        return f"unknown command {names!r} (known: {', '.join(ACTIONS)})"
+    ((name, value),) = action.items()
+    try:
+        arg = msgspec.convert(value, ACTIONS[name], strict=True)
+    except msgspec.ValidationError as exc:
+        return f"{name}: {value!r} is not {ACTION_SHAPES[name]} ({exc})"
+    if name in ("heal", "stop") and arg is not True:
+        return f"{name}: must be true"
+    ids: list[int] = []
+    if name == "kill":
+        ids = [arg] if isinstance(arg, int) else arg
+    elif name in ("cut", "restore", "partition"):
+        ids = [i for group in arg for i in group]
+    elif name == "add":
+        for spec in arg:
+            try:
+                msgspec.convert(spec, AddedRobot, strict=True)
+            except msgspec.ValidationError as exc:
+                return f"add: {spec!r} is not a robot spec with pos = [x, y] ({exc})"
+            if not _finite_point(spec["pos"], dims):
+                return f"add: pos {spec['pos']!r} is not a finite point of at most {dims} coordinates"
+    elif name == "move":
+        if objects is not None and arg.object not in objects:
+            return f"move: no object {arg.object!r} (objects: {sorted(objects)})"
+        if not _finite_point(arg.pos, dims):
+            return f"move: pos {arg.pos!r} is not a finite point of at most {dims} coordinates"
+    if robots is not None:
+        bad = [i for i in ids if i >= robots]
+        if bad:
+            return f"{name}: no robot {bad[0]} (ids 0..{robots - 1})"
+    return None
+
+
+def _finite_point(p: list[float], dims: int) -> bool:
+    return 1 <= len(p) <= dims and all(math.isfinite(v) for v in p)
+
+
+# ----------------------------------------------------------------- encoding
+_encoder = msgspec.msgpack.Encoder()
+_decoders: dict[Any, msgspec.msgpack.Decoder] = {}
+
+
+def encode(msg: msgspec.Struct) -> bytes:
+    """A message as msgpack bytes."""
+    return _encoder.encode(msg)
+
+
+def decode(data: bytes, kind: Any, *, what: str) -> Any:
+    """Decode and validate ``data`` as ``kind`` (a message type or union); ``MalformedMessage`` names the field."""
+    dec = _decoders.get(kind)
+    if dec is None:
+        dec = _decoders[kind] = msgspec.msgpack.Decoder(kind)
+    try:
+        return dec.decode(data)
+    except msgspec.DecodeError as exc:
+        raise MalformedMessage(f"bad {what}: {exc}") from None

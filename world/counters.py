@@ -1,0 +1,111 @@
+"""What the world counts and records: frame counters by robot and by drop cause, and each tick's record.
+
+``Counters`` is what result.json reports; ``TickRecord`` is the trace record of the tick being built
+(docs/trace.md: ``sent``, ``del``, ``drop``, ``mal``, ``ev``, ``status``, ``pos``). Both only collect
+values; they decide nothing.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import defaultdict
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from transport.messages import DROP_CAUSES
+
+log = logging.getLogger("world")
+
+MALFORMED_EXAMPLES = 100  # reasons kept for result.json (every one is counted)
+
+
+@dataclass
+class Counters:
+    """Frames sent, delivered and dropped (by cause), in total and per robot."""
+
+    sent: int = 0
+    delivered: int = 0
+    dropped: dict[str, int] = field(default_factory=lambda: dict.fromkeys(DROP_CAUSES, 0))
+    sent_by: dict[int, int] = field(default_factory=lambda: defaultdict(int))
+    received_by: dict[int, int] = field(default_factory=lambda: defaultdict(int))
+    dropped_by: dict[int, dict[str, int]] = field(default_factory=lambda: defaultdict(lambda: defaultdict(int)))
+    malformed: list[str] = field(default_factory=list)  # first reasons, for the result
+
+    def drop(self, src: int | None, cause: str, n: int = 1) -> None:
+        self.dropped[cause] += n
+        if src is not None and src >= 0:
+            self.dropped_by[src][cause] += n
+
+    def as_dict(self) -> dict:
+        return {
+            "frames_sent": self.sent,
+            "deliveries": self.delivered,
+            "dropped": dict(self.dropped),
+            "dropped_total": sum(self.dropped.values()),
+            "malformed_examples": self.malformed[:20],
+        }
+
+    def per_robot(self, n: int) -> dict[int, dict]:
+        return {rid: {"sent": self.sent_by.get(rid, 0), "received": self.received_by.get(rid, 0),
+                      "dropped": dict(self.dropped_by.get(rid, {}))} for rid in range(n)}
+
+
+class TickRecord:
+    """The trace record of the current tick, and the counters it feeds.
+
+    Whatever happens between two ticks (a malformed message, a host lost) goes into the next tick's record.
+    ``publish_event`` sends each event to observers as it happens.
+    """
+
+    def __init__(self, counters: Counters, publish_event: Callable[[dict], None]):
+        self.counters = counters
+        self.publish_event = publish_event
+        self.rec: dict[str, Any] = {}
+
+    def take(self) -> dict:
+        """The finished record; a new one begins."""
+        rec, self.rec = self.rec, {}
+        return rec
+
+    def malformed(self, src: int | None, reason: str) -> None:
+        """A message (or part of one) the world could not use: counted, recorded, logged."""
+        self.counters.drop(src, "malformed")
+        if len(self.counters.malformed) < MALFORMED_EXAMPLES:
+            self.counters.malformed.append(reason)
+        self.rec.setdefault("mal", []).append(reason)
+        log.warning("malformed: %s", reason)
+
+    def event(self, tick: int, ev: dict) -> None:
+        """A world event (fault applied, robot failed or added, host lost)."""
+        ev = {"t": tick, **ev}
+        self.rec.setdefault("ev", []).append(ev)
+        self.publish_event(ev)
+
+    def status(self, rid: int, changes: dict) -> None:
+        self.rec.setdefault("status", {})[rid] = changes
+
+    def sent(self, frames: list) -> None:
+        c = self.counters
+        sent = self.rec.setdefault("sent", [])
+        for f in frames:
+            c.sent += 1
+            c.sent_by[f.src] += 1
+            sent.append([f.src, f.seq, f.kind, f.dst, len(f.body)])
+
+    def dropped(self, drops: list) -> None:
+        """``drops``: (src, seq, dst, kind, cause) as the radio decided them."""
+        rec_drops = self.rec.setdefault("drop", [])
+        for src, seq, dst, _kind, cause in drops:
+            self.counters.drop(src, cause)
+            rec_drops.append([src, seq, dst, cause])
+
+    def dead(self, src: int, seq: int, dst: int) -> None:
+        """A frame whose receiver died while it was in the air."""
+        self.counters.drop(src, "dead")
+        self.rec.setdefault("drop", []).append([src, seq, dst, "dead"])
+
+    def delivered(self, src: int, seq: int, dst: int, sent_tick: int) -> None:
+        self.counters.delivered += 1
+        self.counters.received_by[dst] += 1
+        self.rec.setdefault("del", []).append([src, seq, dst, sent_tick])

@@ -1,0 +1,116 @@
+"""Faults and world actions: scenario ``[[events]]`` and ``control`` commands, and robot crashes.
+
+Every action (kill, kill a fraction, add robots, cut or restore links, partition and heal, change the loss,
+move an object, stop) is one of ``transport.messages.ACTIONS``, validated there before it is queued or
+applied. Actions apply at the start of a tick, scenario events first (in ``at`` order), then the control
+commands that arrived since the last tick, so a run with the same events is the same run.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from transport.messages import action_problem
+from world import rng
+from world.counters import TickRecord
+from world.radio import Medium
+from world.registry import HostEntry, Robots
+
+log = logging.getLogger("world")
+
+
+@dataclass
+class Applied:
+    """What an action asks of the world beyond what ``Faults`` did itself."""
+
+    added: list[int] = field(default_factory=list)  # new robots, to be given to hosts
+    stop: str | None = None  # the run should stop, for this reason
+
+
+class Faults:
+    """Applies actions and crashes robots; tells each host which of its robots died."""
+
+    def __init__(self, events: list[dict], seed: int, robots: Robots, hosts: dict[str, HostEntry],
+                 medium: Medium, objects: dict[str, list[float]], record: TickRecord):
+        self.events = sorted(events, key=lambda e: e["at"])
+        self._next_event = 0
+        self.queued: list[dict] = []  # control actions, applied at the next tick
+        self.seed = seed
+        self.robots = robots
+        self.hosts = hosts
+        self.medium = medium
+        self.objects = objects
+        self.record = record
+
+    def problem(self, action: dict) -> str | None:
+        """Why ``action`` cannot be applied to this world now, or None."""
+        return action_problem(action, robots=len(self.robots), dims=self.robots.dims, objects=set(self.objects))
+
+    def due(self, tick: int) -> list[tuple[dict, str]]:
+        """The actions to apply at ``tick``: due scenario events, then queued control commands."""
+        out = []
+        while self._next_event < len(self.events) and self.events[self._next_event]["at"] <= tick:
+            ev = {k: v for k, v in self.events[self._next_event].items() if k != "at"}
+            self._next_event += 1
+            out.append((ev, "scenario"))
+        queued, self.queued = self.queued, []
+        return out + [(a, "control") for a in queued]
+
+    def crash(self, rid: int, tick: int, cause: str, error: str | None = None) -> None:
+        """Robot ``rid`` fails now (killed, crashed, watchdog, host-lost); its host is told."""
+        if self.robots.kill(rid, tick, cause, error):
+            ev = {"robot": rid, "failed": cause}
+            if error:
+                ev["error"] = error
+            self.record.event(tick, ev)
+            host = self.robots.host[rid]
+            if host:
+                self.hosts[host].pending_dead.append(rid)
+
+    def apply(self, action: dict, source: str, tick: int) -> Applied:
+        """Apply one validated action now (an invalid one is logged and changes nothing)."""
+        problem = self.problem(action)
+        if problem:
+            log.error("%s action at tick %d: %s", source, tick, problem)
+            return Applied()
+        ((name, value),) = action.items()
+        if name == "kill":
+            ids = [value] if type(value) is int else value
+            self._kill(ids, source, tick)
+        elif name == "kill_fraction":
+            alive = self.robots.alive_ids()
+            k = int(round(float(value) * len(alive)))
+            order = np.argsort(rng.uniform(self.seed, rng.PLACEMENT, tick, -1, alive), kind="stable")
+            self._kill(sorted(alive[order[:k]].tolist()), source, tick)
+        elif name == "add":
+            ids = self.robots.add(value, tick=tick)
+            self.record.event(tick, {"added": ids, "source": source})
+            return Applied(added=ids)
+        elif name in ("cut", "restore"):
+            for a, b in value:
+                (self.medium.cut if name == "cut" else self.medium.restore)(a, b)
+            self.record.event(tick, {name: value, "source": source})
+        elif name == "partition":
+            self.medium.partition(value)
+            self.record.event(tick, {"partition": value, "source": source})
+        elif name == "heal":
+            self.medium.heal()
+            self.record.event(tick, {"heal": True, "source": source})
+        elif name == "loss":
+            self.medium.set_loss(float(value))
+            self.record.event(tick, {"loss": float(value), "source": source})
+        elif name == "move":
+            self.objects[value["object"]] = list(map(float, value["pos"]))
+            self.record.event(tick, {"move": {"object": value["object"], "pos": self.objects[value["object"]]},
+                                     "source": source})
+        elif name == "stop":
+            return Applied(stop=f"stopped by {source}")
+        return Applied()
+
+    def _kill(self, ids: list[int], source: str, tick: int) -> None:
+        self.record.event(tick, {"kill": ids, "source": source})
+        for rid in ids:
+            self.crash(rid, tick, "killed")

@@ -1,0 +1,66 @@
+"""What the world takes from a host's uplink: the rules a decoded ``Uplink`` must still pass.
+
+``transport.messages`` checks types and ranges. What needs the world's state is checked here, robot by
+robot: a host speaks only for the robots it runs; a dead robot's outputs are ignored; a velocity is finite
+and has at most ``dims`` components; a robot's frame sequence numbers increase. What fails is reported as a
+reason (counted as ``malformed`` by the world); the rest of the uplink is still used.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from transport.messages import RobotOut
+from world.radio import Outgoing
+
+
+@dataclass
+class Accepted:
+    """An uplink's usable content, and the reasons for what was refused (robot id or None, reason)."""
+
+    velocities: list[tuple[int, np.ndarray]] = field(default_factory=list)
+    statuses: list[tuple[int, dict]] = field(default_factory=list)
+    frames: list[Outgoing] = field(default_factory=list)
+    crashes: list[tuple[int, str, str]] = field(default_factory=list)  # (robot, cause, error)
+    refused: list[tuple[int | None, str]] = field(default_factory=list)
+
+
+def accept(host: str, rows: list[RobotOut], owned: set[int], alive: np.ndarray, dims: int,
+           last_seq: dict[int, int]) -> Accepted:
+    """Check a host's robot rows against the world's state; ``last_seq`` is updated for accepted frames."""
+    out = Accepted()
+    n = len(alive)
+    gone: set[int] = set()
+    for row in rows:
+        rid = row.id
+        if rid not in owned:
+            out.refused.append((rid if rid < n else None, f"host {host} sent for robot {rid}, which it does not run"))
+            continue
+        if not alive[rid] or rid in gone:
+            continue
+        if row.error is not None:
+            cause = "watchdog" if row.error.startswith("watchdog") else "crashed"
+            out.crashes.append((rid, cause, row.error))
+            gone.add(rid)
+            continue
+        if row.velocity is not None:
+            vel = row.velocity
+            if 1 <= len(vel) <= dims and all(math.isfinite(v) for v in vel):
+                v = np.zeros(dims)
+                v[: len(vel)] = vel
+                out.velocities.append((rid, v))
+            else:
+                out.refused.append((rid, f"velocity of robot {rid} is {vel!r}"))
+        if row.status:
+            out.statuses.append((rid, row.status))
+        for f in row.frames:
+            if f.seq <= last_seq.get(rid, -1):
+                out.refused.append((rid, f"bad frame header from robot {rid}: dst={f.dst!r} kind={f.kind!r} "
+                                         f"seq={f.seq!r} (not after {last_seq.get(rid, -1)})"))
+                continue
+            last_seq[rid] = f.seq
+            out.frames.append(Outgoing(rid, f.dst, f.kind, f.seq, f.body, tuple(f.exclude)))
+    return out
