@@ -18,6 +18,7 @@ from pathlib import Path
 from rich.console import Console
 
 from swarmactors import scenario as scenario_mod
+from swarmactors import schedule_cli
 from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME
 from swarmactors.launcher import new_run_id, run_world, serve_host
 from swarmactors.plugins import BEHAVIORS, resolve
@@ -123,6 +124,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="worker processes (default: CPUs - 1)")
     sweep.add_argument("--keep", choices=["all", "failed", "none"], default="failed",
                        help="which trials keep their result.json and trace (default: failed)")
+    schedule_cli.add_parser(sub)
     return p
 
 
@@ -151,6 +153,8 @@ def main(argv: list[str] | None = None) -> int:
             return _robots(args)  # bad credentials files raise ValueError: exit 2
         if args.command == "check":
             return _check(args, err)
+        if args.command == "schedule":
+            return schedule_cli.command(args)  # exit codes as documented there (0, 1, 2, 3)
         if args.command in ("view", "replay", "sweep"):
             from swarmactors.see import command  # the viewer, replays and sweeps (docs/viewer.md)
 

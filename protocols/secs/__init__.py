@@ -1,0 +1,13 @@
+"""Seed 003 (Panerati et al., ICRA 2018): the Task Scheduling Controller, and later the SECS navigation controller.
+
+Import-light on purpose: robot hosts may import this package, so the MILP solver (scipy), the checker and the
+plots live in submodules that are imported only by who needs them:
+
+- ``protocols.secs.schedule``: TCTM (Eqs. 4-13) and TDSM (Eq. 14) as MILPs on HiGHS, instances as in §IV-B.
+- ``protocols.secs.schedule_check``: the independent feasibility check of a returned schedule.
+- ``protocols.secs.schedule_plot``: a schedule drawn like the paper's Fig. 6.
+
+See docs/protocols/tsc.md.
+"""
+
+__all__: list[str] = []
