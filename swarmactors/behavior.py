@@ -22,17 +22,16 @@ from __future__ import annotations
 
 import inspect
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any, ClassVar
 
+import msgspec
 import numpy as np
 
 from transport.messages import FrameOut
 
 
-@dataclass(frozen=True, slots=True)
-class Frame:
-    """A frame as a receiving robot sees it."""
+class Frame(msgspec.Struct, frozen=True):
+    """A frame as a receiving robot sees it (its body is this robot's own copy)."""
 
     src: int
     kind: str
@@ -41,8 +40,7 @@ class Frame:
     sent: float  # send tick (lockstep) or send time in seconds (realtime)
 
 
-@dataclass(frozen=True, slots=True)
-class Sensed:
+class Sensed(msgspec.Struct, frozen=True):
     """A robot within sensing range: its id and (possibly noisy) position."""
 
     id: int

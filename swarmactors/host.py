@@ -22,12 +22,13 @@ import traceback
 from collections.abc import Iterator, Sequence
 from typing import Any
 
+import msgspec
 import numpy as np
 
 from swarmactors.behavior import Behavior, Context, Frame, Sensed
 from swarmactors.plugins import BEHAVIORS, resolve
 from swarmactors.tasks import TaskSet
-from transport import Keys, Link, MalformedMessage, pack, seal, unpack
+from transport import Keys, Link, MalformedMessage, pack, seal
 from transport.messages import (
     Deliveries,
     Downlink,
@@ -219,11 +220,14 @@ class SensedView(Sequence):
         return np.array(self._flat, dtype=float).reshape(len(self._ids), self._dims)
 
 
+_body_decoder = msgspec.msgpack.Decoder()
+
+
 def decode_body(f: FrameIn) -> Frame | None:
     """A received frame with its body decoded; None for an undecodable body."""
     try:
-        return Frame(f.src, f.kind, unpack(f.body, what="frame body"), f.seq, f.sent)
-    except MalformedMessage:
+        return Frame(f.src, f.kind, _body_decoder.decode(f.body), f.seq, f.sent)
+    except msgspec.DecodeError:
         return None
 
 
