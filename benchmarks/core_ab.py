@@ -13,8 +13,9 @@ spawning) cancels out:
 * host CPU per delivery = Δ(CPU time of the host processes, as children) / Δ(deliveries).
 
 Both include the Zenoh threads of their processes, which are the same code in both versions. Versions run
-interleaved (A B B A A B …) ``--repeats`` times; the medians are compared. The baseline tree is a detached git
-worktree under the system's temporary directory; its modules shadow the installed ones through PYTHONPATH.
+interleaved (A B B A A B …) ``--repeats`` times; the medians are compared. A compared commit is checked out as a
+detached git worktree under the system's temporary directory; its modules shadow the installed ones through
+PYTHONPATH (the behaviour is named by module path, so the installed entry points do not matter).
 Nothing is asserted: the numbers go to the JSON file and docs/benchmarks.md.
 """
 
@@ -38,7 +39,7 @@ def main():
     sc = {"run": {"name": "ab", "seed": 1, "ticks": ticks, "trace": False},
           "radio": {"range": 1.5},
           "robots": [{"count": n, "placement": "grid", "spacing": 1.0,
-                      "behaviors": [{"use": "beacon", "every": 1}]}]}
+                      "behaviors": [{"use": "protocols.beacon:Beacon", "every": 1}]}]}
     t0 = os.times()
     r = run(sc, out=out, processes=2)
     t1 = os.times()
@@ -79,13 +80,14 @@ def marginal(tree: Path, n: int, short: int, long: int) -> dict:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--base", default="08e4ba6", help="baseline commit (default: before Core v2)")
+    ap.add_argument("--new", default=None, help="commit to compare (default: this working tree)")
     ap.add_argument("--n", type=int, default=1000)
     ap.add_argument("--short", type=int, default=10)
     ap.add_argument("--long", type=int, default=50)
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "core_ab.json")
     args = ap.parse_args(argv)
-    trees = {"base": worktree(args.base), "new": ROOT}
+    trees = {"base": worktree(args.base), "new": worktree(args.new) if args.new else ROOT}
     runs: dict[str, list[dict]] = {"base": [], "new": []}
     for i in range(args.repeats):
         order = ("base", "new") if i % 2 == 0 else ("new", "base")
@@ -99,7 +101,7 @@ def main(argv: list[str] | None = None) -> int:
         summary[name] = {k: statistics.median(r[k] for r in rs) for k in ("world_us", "hosts_us")}
     hashes = {r["hash"] for rs in runs.values() for r in rs}
     ratio = {k: summary["new"][k] / summary["base"][k] for k in ("world_us", "hosts_us")}
-    result = {"base": args.base, "n": args.n, "ticks": [args.short, args.long], "repeats": args.repeats,
+    result = {"base": args.base, "new": args.new or "working tree", "n": args.n, "ticks": [args.short, args.long], "repeats": args.repeats,
               "median": summary, "ratio_new_over_base": ratio, "same_trace_hash": len(hashes) == 1,
               "runs": runs, "cpus": os.cpu_count()}
     args.out.parent.mkdir(parents=True, exist_ok=True)
