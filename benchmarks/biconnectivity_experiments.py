@@ -43,16 +43,14 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from protocols.biconnectivity import (  # noqa: E402
+from protocols.biconnectivity.geometry import (  # noqa: E402
     adjacency,
     biconnected,
-    expected_counts,
     join_position,
-    paper_biconnected,
-    path_ends,
     prox,
     removal_distance,
 )
+from protocols.biconnectivity.oracle import expected_counts, paper_biconnected, path_ends  # noqa: E402
 from swarmactors.launcher import new_run_id, run_world  # noqa: E402
 from swarmactors.scenario import resolve_scenario  # noqa: E402
 from transport import Endpoints  # noqa: E402

@@ -69,7 +69,8 @@ def prelim_job(n: int, seed: int, ticks: int) -> dict:
     """One trial of Sec. IV-A: both modes on the same walk."""
     import shutil
 
-    from protocols.roles import aat_scenario, connectivity
+    from protocols.roles.oracle import connectivity
+    from protocols.roles.scenarios import aat_scenario
 
     logging.getLogger().setLevel(logging.ERROR)
     row = {"n": n, "seed": seed, "ticks": ticks}
@@ -93,7 +94,8 @@ def main_job(n: int, seed: int, ticks: int, params: dict | None = None) -> dict:
     """One patrol trial of Sec. IV-B; ``params`` go to ``patrol_scenario`` (``d_s``: the groups' sensing range)."""
     import shutil
 
-    from protocols.roles import disconnection_episodes, patrol_scenario
+    from protocols.roles.oracle import disconnection_episodes
+    from protocols.roles.scenarios import patrol_scenario
 
     logging.getLogger().setLevel(logging.ERROR)
     result = _run(patrol_scenario(n, seed, ticks, checks=[{"use": "roles.leader"}, {"use": "roles.chain"},
@@ -224,8 +226,8 @@ def plot_prelim(rows: list[dict], img: Path, fig3: dict | None) -> dict:
 
 def fig3_snapshot(n: int = 20, seed: int = 3, ticks: int = 200, walk_until: int | None = 150) -> dict:
     """Run both modes on the same walk (stopped at ``walk_until``) and return the links at the last tick."""
-    from protocols.roles import aat_scenario
     from protocols.roles.oracle import timeline
+    from protocols.roles.scenarios import aat_scenario
 
     out = {"n": n, "seed": seed, "walk_until": walk_until}
     for mode in ("proposed", "baseline"):
@@ -243,8 +245,8 @@ def fig3_snapshot(n: int = 20, seed: int = 3, ticks: int = 200, walk_until: int 
 
 def fig6_snapshots(img: Path, n: int = 10, seed: int = 1, ticks: int = 2000) -> dict:
     """Plot a typical patrol (Fig. 6): the swarm at four moments."""
-    from protocols.roles import patrol_scenario
     from protocols.roles.oracle import formed_graph, timeline
+    from protocols.roles.scenarios import patrol_scenario
 
     plt = _plt()
     with tempfile.TemporaryDirectory() as d:

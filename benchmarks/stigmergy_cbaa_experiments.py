@@ -50,8 +50,8 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from protocols.cbaa import optimum, sequential_greedy  # noqa: E402
-from protocols.stigmergy import oracle_tables  # noqa: E402
+from protocols.cbaa.oracle import optimum, sequential_greedy  # noqa: E402
+from protocols.stigmergy.oracle import oracle_tables  # noqa: E402
 from swarmactors.launcher import new_run_id, run_world  # noqa: E402
 from swarmactors.scenario import resolve_scenario  # noqa: E402
 from transport import Endpoints  # noqa: E402

@@ -1,1 +1,5 @@
-"""Protocol families, one module each: message kinds, behaviours, metrics, oracle checks."""
+"""Protocol families, one package each.
+
+Each has ``behavior.py`` (robot side, imports no oracle), pure helpers, ``oracle.py`` (checks) and ``suite.py``
+(conformance cases).
+"""

@@ -21,6 +21,7 @@ copy of every frame body it receives).
 from __future__ import annotations
 
 import inspect
+import math
 from collections.abc import Callable
 from typing import Any, ClassVar
 
@@ -185,6 +186,16 @@ class Context:
         """A log line kept with the robot's report (the last 200)."""
         self.logs.append(f"[{self.tick}] {message}")
         del self.logs[:-200]
+
+
+def is_int(v: Any) -> bool:
+    """Whether ``v`` is an integer parameter value (a bool is not)."""
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def is_num(v: Any) -> bool:
+    """Whether ``v`` is a finite number (an int or a float; a bool is not)."""
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
 def check_params(cls: type, params: dict) -> str | None:

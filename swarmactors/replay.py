@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import bisect
 import json
-import shutil
 from collections.abc import Callable
 from pathlib import Path
 
@@ -201,7 +200,3 @@ def draw_scene(ax, scene: Scene, field: str | None, lo, hi) -> None:
     ax.set_aspect("equal")
     ax.set_xlabel("x (length units)")
     ax.set_ylabel("y (length units)")
-
-
-def ffmpeg_available() -> bool:
-    return shutil.which("ffmpeg") is not None

@@ -18,10 +18,12 @@ import subprocess
 from functools import cached_property
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import networkx as nx
 import numpy as np
+
+if TYPE_CHECKING:  # networkx is the oracle's: imported where a graph is built, never by a robot host
+    import networkx as nx
 
 
 def package_version() -> dict:
@@ -168,6 +170,8 @@ class Result:
         Alive robots, links in range (mutual unless ``directed``), minus cut links and links between
         partition groups.
         """
+        import networkx as nx
+
         rec = self.record(tick)
         cuts, group = self.severed_at(tick)
         ranges = self.ranges()

@@ -14,15 +14,16 @@ import inspect
 import math
 import tomllib
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import networkx as nx
 import numpy as np
-from scipy.spatial import cKDTree
 
 from swarmactors.behavior import check_params
 from swarmactors.plugins import BEHAVIORS, CHECKS, PluginError, resolve
 from transport.messages import ACTIONS, action_problem
+
+if TYPE_CHECKING:  # networkx and scipy are imported where used: a robot host imports this module and neither
+    import networkx as nx
 
 
 class ScenarioError(ValueError):
@@ -51,7 +52,6 @@ def _one_of(*options):
 
 
 _NUM = (int, float)
-REQUIRED = object()
 
 SCHEMA: dict[str, dict[str, tuple]] = {
     "run": {
@@ -79,6 +79,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
     },
     "world": {
         "dims": (int, 2, _one_of(2, 3)),
+        "max_robots": (int, 10_000, _positive),  # robots a run may hold, joins and adds included (issue 27)
         "bounds": (list, None, None),
         "objects": (list, [], None),
     },
@@ -315,6 +316,8 @@ def _connect_groups(sc: dict, source: str, rng: np.random.Generator) -> None:
     groups = sc["robots"]
     if not any(g["connected"] for g in groups):
         return
+    import networkx as nx
+
     for _attempt in range(2000):
         pos = np.vstack([np.array(g["positions"]) for g in groups])
         ranges = np.concatenate([[g["range"]] * g["count"] for g in groups])
@@ -330,6 +333,9 @@ def _connect_groups(sc: dict, source: str, rng: np.random.Generator) -> None:
 
 def undirected_graph(pos: np.ndarray, ranges: np.ndarray, ids: list[int] | None = None) -> nx.Graph:
     """Robots as nodes, an edge where each is within the other's range (the mutual links)."""
+    import networkx as nx
+    from scipy.spatial import cKDTree
+
     ids = list(range(len(pos))) if ids is None else ids
     g = nx.Graph()
     g.add_nodes_from(ids)

@@ -183,3 +183,17 @@ class ReadsContext(Behavior):
 
     def report(self):
         return {"seen": self.seen}
+
+
+class HostImports(Behavior):
+    """Reports, at the end of the run, which oracle-side modules its host process has imported, and its pid."""
+
+    name = "host_imports"
+
+    def report(self) -> dict:
+        import os
+        import sys
+
+        oracle = sorted(m for m in sys.modules
+                        if m.split(".")[0] in {"networkx", "scipy"} or m.startswith("swarmactors.conformance"))
+        return {"modules": oracle, "pid": os.getpid()}

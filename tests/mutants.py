@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import types
 
-from protocols import biconnectivity, cbaa
-from protocols.biconnectivity import Biconnectivity
-from protocols.cbaa import CBAA
-from protocols.flooding import Flooding
-from protocols.stigmergy import Entry, StigmergyScript
+from protocols.biconnectivity import behavior as biconnectivity
+from protocols.biconnectivity.behavior import Biconnectivity
+from protocols.cbaa import behavior as cbaa
+from protocols.cbaa.behavior import CBAA
+from protocols.flooding.behavior import Flooding
+from protocols.stigmergy.behavior import StigmergyScript
+from protocols.stigmergy.table import Entry
 from swarmactors import Frame
 
 

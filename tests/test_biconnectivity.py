@@ -15,21 +15,21 @@ import pytest
 from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
-from protocols.biconnectivity import (
-    CR,
-    DCR,
-    Biconnectivity,
+from protocols.biconnectivity.behavior import CR, DCR, Biconnectivity
+from protocols.biconnectivity.geometry import (
     adjacency,
     biconnected,
-    doubly_connected,
-    expected_counts,
     join_position,
-    oracle_best_join,
-    paper_biconnected,
-    path_ends,
     prox,
     removal_distance,
     two_closest_sum,
+)
+from protocols.biconnectivity.oracle import (
+    doubly_connected,
+    expected_counts,
+    oracle_best_join,
+    paper_biconnected,
+    path_ends,
 )
 from swarmactors import Behavior
 

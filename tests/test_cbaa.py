@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linear_sum_assignment
 
-from protocols.cbaa import KIND, LEAVE, RESET, UPDATE, decide
+from protocols.cbaa.rules import KIND, LEAVE, RESET, UPDATE, decide
 from swarmactors import Behavior, Context
 
 CHECKS = [{"use": "cbaa.conflict_free"}, {"use": "cbaa.greedy"}, {"use": "cbaa.optimality"}]

@@ -94,7 +94,7 @@ def check_cmd(*args, cwd=TESTS):
 @pytest.mark.slow
 def test_user_behaviour_from_outside_the_project_runs_and_is_checked(tmp_path):
     (tmp_path / "myflood.py").write_text(textwrap.dedent("""
-        from protocols.flooding import Flooding
+        from protocols.flooding.behavior import Flooding
 
         class MyFlood(Flooding):
             '''A user's copy of the protocol, in a module outside the project.'''
@@ -119,7 +119,7 @@ BAD_USERS = {
 @pytest.mark.parametrize("kind", sorted(BAD_USERS))
 def test_bad_user_behaviour_gives_a_clear_error_and_exit_2(kind, tmp_path):
     (tmp_path / "badflood.py").write_text(textwrap.dedent("""
-        from protocols.flooding import Flooding
+        from protocols.flooding.behavior import Flooding
 
         NotAClass = 42
 

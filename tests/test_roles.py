@@ -23,20 +23,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from protocols.roles import (
-    AATWalk,
-    Connections,
-    RoleSwitching,
-    aat_scenario,
-    blocked,
-    disconnection_episodes,
-    gabriel_brute,
-    gabriel_edges,
-    handover_gaps,
-    patrol_placement,
-    patrol_scenario,
-)
-from protocols.roles.oracle import timeline
+from protocols.roles.aat import Connections, blocked
+from protocols.roles.behavior import AATWalk, RoleSwitching
+from protocols.roles.oracle import disconnection_episodes, gabriel_brute, gabriel_edges, handover_gaps, timeline
+from protocols.roles.scenarios import aat_scenario, patrol_placement, patrol_scenario
 from swarmactors import Behavior
 from swarmactors.scenario import ScenarioError, resolve_scenario
 

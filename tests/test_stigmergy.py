@@ -17,15 +17,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from protocols.stigmergy import (
-    DIGEST,
-    PUT,
-    QUERY,
-    Entry,
-    Stigmergy,
-    higher_id,
-    lower_value,
-)
+from protocols.stigmergy.table import DIGEST, PUT, QUERY, Entry, Stigmergy, higher_id, lower_value
 from swarmactors import Behavior, Context, Frame
 
 

@@ -9,7 +9,7 @@ robots one hop beyond the expiry also receive it. Run from this directory:
 and see docs/conformance.md for the report.
 """
 
-from protocols.flooding import Flooding
+from protocols.flooding.behavior import Flooding
 from swarmactors import Frame
 
 

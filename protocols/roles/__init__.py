@@ -43,38 +43,8 @@ Recovery (Sec. III-D): an explorer that has heard no fresh u_LL for ``lost_after
 it heads to the origin, runs the acute angle test on everything it senses, asks (RS_HELP) any repeater or
 the base station in range for the position of its child (RS_WHERE), heads there, asks the next repeater,
 and is back when a fresh u_LL reaches it through a link.
+
+Files: ``behavior.py`` (the robot side: RoleSwitching, AATWalk), ``aat.py`` (the acute angle test),
+``oracle.py`` (checks), ``scenarios.py`` (placements and scenarios) and ``suite.py`` (the conformance family).
+Nothing is imported here, so loading the behaviour loads no oracle.
 """
-
-from protocols.roles.aat import Connections, blocked
-from protocols.roles.behavior import (
-    BS,
-    EX,
-    KINDS,
-    LL,
-    ROLES,
-    RP,
-    AATWalk,
-    RoleSwitching,
-)
-from protocols.roles.oracle import (
-    algebraic_connectivity,
-    chain,
-    connectivity,
-    disconnection_episodes,
-    disconnections,
-    gabriel,
-    gabriel_brute,
-    gabriel_edges,
-    handover,
-    handover_gaps,
-    leader,
-    targets,
-)
-from protocols.roles.scenarios import aat_scenario, patrol_placement, patrol_scenario, patrol_targets
-
-__all__ = [
-    "BS", "EX", "KINDS", "LL", "ROLES", "RP", "AATWalk", "Connections", "RoleSwitching", "aat_scenario",
-    "algebraic_connectivity", "blocked", "chain", "connectivity", "disconnection_episodes", "disconnections",
-    "gabriel", "gabriel_brute", "gabriel_edges", "handover", "handover_gaps", "leader", "patrol_placement",
-    "patrol_scenario", "patrol_targets", "targets",
-]

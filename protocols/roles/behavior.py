@@ -20,6 +20,7 @@ import numpy as np
 
 from protocols.roles.aat import MODES, PROPOSED, Connections
 from swarmactors import Behavior, Context, Frame
+from swarmactors.behavior import is_int, is_num
 
 # ------------------------------------------------------------------ roles and message kinds
 BS, RP, LL, EX = "base_station", "repeater", "local_leader", "explorer"
@@ -41,14 +42,6 @@ WHERE = "RS_WHERE"  # the answer: the child's id, role and position
 KINDS = (STATE, LL_INFO, CONNECT, DISCONNECT, REQUEST, ACK, NACK, TARGET, ARRIVED, HELP, WHERE)
 
 EXTEND, RETRACT = "extend", "retract"
-
-
-def _num(v: Any) -> bool:
-    return type(v) in (int, float) and math.isfinite(v)
-
-
-def _int(v: Any) -> bool:
-    return type(v) is int
 
 
 def _vec(v: Any) -> bool:
@@ -163,12 +156,12 @@ class RoleSwitching(Behavior, _Timed):
     @staticmethod
     def validate(params: dict) -> str | None:
         for key in ("leader", "base"):
-            if key in params and (not _int(params[key]) or params[key] < 0):
+            if key in params and (not is_int(params[key]) or params[key] < 0):
                 return f"{key} = {params[key]!r} must be a robot id (non-negative integer)"
         if params.get("leader") == params.get("base", 0):
             return "the base station cannot be the initial local leader"
         for key in ("eta_a", "eta_b", "vmax", "d_n", "arrive", "hold"):
-            if key in params and (not _num(params[key]) or params[key] <= 0):
+            if key in params and (not is_num(params[key]) or params[key] <= 0):
                 return f"{key} = {params[key]!r} must be a positive number"
         for key in ("eta_a", "eta_b", "hold"):
             if key in params and params[key] >= 1:
@@ -176,17 +169,17 @@ class RoleSwitching(Behavior, _Timed):
         if params.get("eta_b", 0.15) >= params.get("eta_a", 0.8):
             return "eta_b must be smaller than eta_a"
         for key in ("eta_c", "expiry", "lost_after", "help_every", "target_every", "switch_delay", "lease"):
-            if key in params and (not _int(params[key]) or params[key] < 1):
+            if key in params and (not is_int(params[key]) or params[key] < 1):
                 return f"{key} = {params[key]!r} must be a positive integer"
         for key in ("k1", "k2", "k3", "k4", "k5", "k6", "k7", "k8"):
-            if key in params and (not _num(params[key]) or params[key] < 0):
+            if key in params and (not is_num(params[key]) or params[key] < 0):
                 return f"{key} = {params[key]!r} must be a non-negative number"
         if params.get("aat", PROPOSED) not in MODES:
             return f"aat = {params.get('aat')!r} must be one of {MODES}"
         t = params.get("targets")
         if t is not None:
             if isinstance(t, dict):
-                if set(t) - {"seed", "count", "lo", "hi"} or not _int(t.get("count", 0)):
+                if set(t) - {"seed", "count", "lo", "hi"} or not is_int(t.get("count", 0)):
                     return "targets as a table takes seed, count, lo, hi"
             elif not (isinstance(t, list) and all(_vec(p) for p in t)):
                 return "targets must be a list of [x, y] points or {seed, count, lo, hi}"
@@ -360,7 +353,7 @@ class RoleSwitching(Behavior, _Timed):
 
     def _on_ll_info(self, ctx: Context, src: int, b: dict) -> bool:
         o, s, dl, h, e = b["o"], b["s"], b["dl"], b["h"], b["e"]
-        if not (_int(o) and _int(s) and _num(dl) and _int(h) and _int(e) and _vec(b["x"]) and _vec(b["u"])):
+        if not (is_int(o) and is_int(s) and is_num(dl) and is_int(h) and is_int(e) and _vec(b["x"]) and _vec(b["u"])):
             return False
         if ctx.now > dl:  # F1: expired copies are ignored
             self.flood_stats["expired"] += 1
@@ -409,8 +402,8 @@ class RoleSwitching(Behavior, _Timed):
 
     # ---------------------------------------------------------- Algorithm 1 messages
     def _on_request(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (isinstance(b, dict) and isinstance(b.get("role"), str) and _int(b.get("e"))
-                and _int(b.get("T")) and b.get("kind") in (EXTEND, RETRACT)):
+        if not (isinstance(b, dict) and isinstance(b.get("role"), str) and is_int(b.get("e"))
+                and is_int(b.get("T")) and b.get("kind") in (EXTEND, RETRACT)):
             self._refuse("malformed")
             return True
         reply = {"e": b["e"]}
@@ -452,14 +445,14 @@ class RoleSwitching(Behavior, _Timed):
             return True
         goal = b.get("goal")
         self.pending = {"from": src, "epoch": e, "T": b["T"], "kind": b["kind"],
-                        "goal": goal if _vec(goal) else None, "gk": b.get("gk", -1) if _int(b.get("gk")) else -1,
+                        "goal": goal if _vec(goal) else None, "gk": b.get("gk", -1) if is_int(b.get("gk")) else -1,
                         "at": ctx.tick}
         self.accepted.append({"from": src, "epoch": e, "tick": ctx.tick, "T": b["T"], "kind": b["kind"]})
         ctx.send(src, ACK, reply)
         return True
 
     def _on_ack(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (isinstance(b, dict) and _int(b.get("e"))):
+        if not (isinstance(b, dict) and is_int(b.get("e"))):
             return False
         ho = self.ho
         if ho is not None and ho["to"] == src and ho["epoch"] == b["e"] and ho.get("acked") is None:
@@ -468,7 +461,7 @@ class RoleSwitching(Behavior, _Timed):
         return True
 
     def _on_nack(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (isinstance(b, dict) and _int(b.get("e"))):
+        if not (isinstance(b, dict) and is_int(b.get("e"))):
             return False
         ho = self.ho
         if ho is not None and ho["to"] == src and ho["epoch"] == b["e"] and ho.get("acked") is None:
@@ -480,7 +473,7 @@ class RoleSwitching(Behavior, _Timed):
 
     # ---------------------------------------------------------- mission relay and recovery messages
     def _on_target(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (isinstance(b, dict) and _int(b.get("k")) and _vec(b.get("x"))):
+        if not (isinstance(b, dict) and is_int(b.get("k")) and _vec(b.get("x"))):
             return False
         if src != self.parent or self.role not in (RP, LL):
             return True
@@ -491,7 +484,7 @@ class RoleSwitching(Behavior, _Timed):
         return True
 
     def _on_arrived(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (isinstance(b, dict) and _int(b.get("k"))):
+        if not (isinstance(b, dict) and is_int(b.get("k"))):
             return False
         if src != self.child:
             return True
@@ -512,7 +505,7 @@ class RoleSwitching(Behavior, _Timed):
         return True
 
     def _on_where(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (isinstance(b, dict) and _int(b.get("c")) and b.get("cr") in ROLES and _vec(b.get("cx"))):
+        if not (isinstance(b, dict) and is_int(b.get("c")) and b.get("cr") in ROLES and _vec(b.get("cx"))):
             return False
         self.known_role[src] = b["r"] if b.get("r") in ROLES else self.known_role.get(src, RP)
         self.known_role[b["c"]] = b["cr"]
@@ -933,9 +926,9 @@ class AATWalk(Behavior, _Timed):
     def validate(params: dict) -> str | None:
         if params.get("mode", PROPOSED) not in MODES:
             return f"mode = {params.get('mode')!r} must be one of {MODES}"
-        if "step" in params and (not _num(params["step"]) or params["step"] <= 0):
+        if "step" in params and (not is_num(params["step"]) or params["step"] <= 0):
             return f"step = {params['step']!r} must be a positive number"
-        if "eta_c" in params and (not _int(params["eta_c"]) or params["eta_c"] < 0):
+        if "eta_c" in params and (not is_int(params["eta_c"]) or params["eta_c"] < 0):
             return f"eta_c = {params['eta_c']!r} must be a non-negative integer"
         return None
 
