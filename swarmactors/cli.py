@@ -95,6 +95,9 @@ def build_parser() -> argparse.ArgumentParser:
     robots.add_argument("--count", type=int, help="robots to ask for (default: all unclaimed)")
     robots.add_argument("--mode", choices=["peer", "client"], default="client")
     robots.add_argument("--secure", type=Path, metavar="DIR", help="directory with ca.pem and host.credential")
+    robots.add_argument("--allow", action="append", default=[], metavar="MODULE",
+                        help="a module whose Behavior classes this host may run (repeatable); "
+                             "registered behaviours are always allowed, nothing else is")
 
     view = sub.add_parser("view", help="watch a running world in the browser (live viewer)")
     view.add_argument("--connect", default="tcp/127.0.0.1:7447", help="the world's Zenoh endpoint")
@@ -334,7 +337,7 @@ def _robots(args) -> int:
         _wait_for(args.secure / "host.credential", seconds=60)
     extra = Security("host", args.secure).zenoh_settings(args.run_id) if args.secure else {}
     endpoints = Endpoints(mode=args.mode, connect=args.connect, extra=extra)
-    asyncio.run(serve_host(endpoints, args.run_id, args.count))
+    asyncio.run(serve_host(endpoints, args.run_id, args.count, args.allow))
     return EXIT_OK
 
 

@@ -19,14 +19,14 @@ import inspect
 import logging
 import time
 import traceback
-from collections.abc import Iterator, Sequence
+from collections.abc import Collection, Iterator, Sequence
 from typing import Any
 
 import msgspec
 import numpy as np
 
 from swarmactors.behavior import Behavior, Context, Frame, Sensed
-from swarmactors.plugins import BEHAVIORS, resolve
+from swarmactors.plugins import RefusedBehavior, resolve_behavior
 from swarmactors.tasks import TaskSet
 from transport import Keys, Link, MalformedMessage, pack, seal
 from transport.messages import (
@@ -51,7 +51,7 @@ log = logging.getLogger(__name__)
 class Robot:
     """One robot actor: its behaviours, its context, and what it will send."""
 
-    def __init__(self, descr: RobotDescr, run: RunInfo):
+    def __init__(self, descr: RobotDescr, run: RunInfo, allow: Collection[str] = ()):
         self.id = descr.id
         self.ctx = Context(self.id, np.random.default_rng([run.seed, self.id]), run.clock, dt=run.dt,
                            radio_range=descr.range, sensing_range=descr.sensing)
@@ -67,10 +67,14 @@ class Robot:
         self.bad_bodies = 0
         try:
             for spec in descr.behaviors:
+                # only allowed Behavior subclasses are imported or called (plugins.resolve_behavior)
+                cls = resolve_behavior(spec.get("use"), allow)
                 params = {k: v for k, v in spec.items() if k not in ("use", "as")}
-                b = resolve(BEHAVIORS, spec["use"])(**params)
+                b = cls(**params)
                 self.behaviors.append(b)
                 self.report_names.append(spec.get("as") or type(b).name or spec["use"])
+        except RefusedBehavior as exc:  # the world counts it under its own cause (world.uplink)
+            self.fail(str(exc))
         except Exception as exc:  # a behaviour that cannot be built crashes its robot, not the host
             self.fail(exc)
         self._catch_all = [b.on_frame for b in self.behaviors if not b.kinds]
@@ -262,7 +266,9 @@ class FrameTable:
 class RobotHost:
     """Joins the world and runs its robots until the world says stop."""
 
-    def __init__(self, link: Link, keys: Keys, count: int | None = None):
+    def __init__(self, link: Link, keys: Keys, count: int | None = None, allow: Collection[str] = ()):
+        """``allow``: the modules whose Behavior subclasses this host may build, beside registered entry points."""
+        self.allow = frozenset(allow)
         self.link = link
         self.keys = keys
         self.count = count
@@ -295,7 +301,7 @@ class RobotHost:
         self.link.declare_token(self.keys.alive(self.name))
 
     def _adopt(self, descr: RobotDescr) -> None:
-        robot = Robot(descr, self.run_info)
+        robot = Robot(descr, self.run_info, self.allow)
         self.robots[robot.id] = robot
 
     async def run(self) -> None:

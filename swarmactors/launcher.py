@@ -18,12 +18,13 @@ import os
 import re
 import signal
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from contextlib import contextmanager
 from pathlib import Path
 
 from swarmactors.checks import run_checks
 from swarmactors.host import RobotHost
+from swarmactors.plugins import scenario_modules
 from swarmactors.result import Result, package_version, to_jsonable
 from swarmactors.scenario import world_spec
 from swarmactors.trace import TraceWriter
@@ -44,19 +45,32 @@ def split(n: int, k: int) -> list[int]:
     return [n // k + (1 if i < n % k else 0) for i in range(k)]
 
 
-def host_process(endpoint: str, run_id: str, count: int | None) -> None:
+def allowed_modules(sc: dict) -> set[str]:
+    """The scenario's own behaviour modules (``module:Class`` in groups and ``add`` events): hosts may build them."""
+    specs = [b for g in sc.get("robots", []) for b in g.get("behaviors", [])]
+    for ev in sc.get("events", []):
+        for spec in ev.get("add", []) if isinstance(ev.get("add"), list) else []:
+            if isinstance(spec, dict):
+                specs += [b for b in spec.get("behaviors", []) if isinstance(b, dict)]
+    return scenario_modules(specs)
+
+
+def host_process(endpoint: str, run_id: str, count: int | None, allow: tuple[str, ...] = ()) -> None:
     """Entry point of a spawned robot-host process."""
     logging.basicConfig(level=logging.WARNING)
     try:
-        asyncio.run(serve_host(Endpoints(mode="peer", connect=[endpoint]), run_id, count))
+        asyncio.run(serve_host(Endpoints(mode="peer", connect=[endpoint]), run_id, count, allow))
     except KeyboardInterrupt:  # Ctrl-C reaches the whole process group; the world ends the run
         pass
 
 
-async def serve_host(endpoints: Endpoints, run_id: str, count: int | None) -> None:
-    """Join run ``run_id`` through ``endpoints`` and run robots until the world stops."""
+async def serve_host(endpoints: Endpoints, run_id: str, count: int | None, allow: Collection[str] = ()) -> None:
+    """Join run ``run_id`` through ``endpoints`` and run robots until the world stops.
+
+    ``allow``: modules whose Behavior subclasses the host may build, beside the registered entry points.
+    """
     with Link(endpoints) as link, quiet_gc():
-        host = RobotHost(link, Keys(run_id), count)
+        host = RobotHost(link, Keys(run_id), count, allow)
         await host.join()
         await host.run()
 
@@ -122,13 +136,13 @@ async def run_world(
             k = min(processes, n)
             if k > 0:
                 endpoint = link.locators()[0]
-                procs = spawn_hosts(endpoint, run_id, split(n, k))
+                procs = spawn_hosts(endpoint, run_id, split(n, k), allowed_modules(sc))
             with quiet_gc():
                 try:
                     async with asyncio.TaskGroup() as tg:
                         tg.create_task(world.run())
                         if k == 0 and local_host:
-                            tg.create_task(_local_host(link, keys))
+                            tg.create_task(_local_host(link, keys, allowed_modules(sc)))
                 except BaseExceptionGroup as group:  # report the first failure as itself (e.g. robots never claimed)
                     raise group.exceptions[0] from None
         finally:
@@ -150,17 +164,19 @@ async def run_world(
     return result
 
 
-async def _local_host(link: Link, keys: Keys) -> None:
-    host = RobotHost(link, keys)
+async def _local_host(link: Link, keys: Keys, allow: Collection[str] = ()) -> None:
+    host = RobotHost(link, keys, allow=allow)
     await host.join()
     await host.run()
 
 
-def spawn_hosts(endpoint: str, run_id: str, counts: list[int]) -> list[multiprocessing.Process]:
-    """Start one host process per count, with the ``spawn`` method and a fixed hash seed."""
+def spawn_hosts(endpoint: str, run_id: str, counts: list[int],
+                allow: Collection[str] = ()) -> list[multiprocessing.Process]:
+    """Start one host process per count, with the ``spawn`` method and a fixed hash seed; ``allow`` as serve_host."""
     ctx = multiprocessing.get_context("spawn")
+    allow = tuple(sorted(allow))
     with fixed_hash_seed():
-        procs = [ctx.Process(target=host_process, args=(endpoint, run_id, c), daemon=True) for c in counts]
+        procs = [ctx.Process(target=host_process, args=(endpoint, run_id, c, allow), daemon=True) for c in counts]
         for p in procs:
             p.start()
     return procs

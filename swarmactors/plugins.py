@@ -6,11 +6,18 @@ which the project's ``protocols`` package (and any third-party package)
 registers in its pyproject. A ``module:attribute`` path imports a user's own
 class or function directly. The runner never imports ``protocols`` by name, so
 dependencies keep flowing ``protocols -> swarmactors``.
+
+A robot host builds behaviours from specs that arrive over the wire, so it goes
+through ``resolve_behavior``: a spec names a registered entry point, or a
+``module:Class`` whose module the host's operator allowed (``--allow MODULE``,
+or the scenario's own modules for ``run``/``world``), and the object must be a
+``Behavior`` subclass. Nothing outside that set is imported, let alone called.
 """
 
 from __future__ import annotations
 
 import importlib
+from collections.abc import Collection
 from functools import cache
 from importlib.metadata import entry_points
 from typing import Any
@@ -45,4 +52,42 @@ def resolve(group: str, name: str) -> Any:
         if not hasattr(obj, part):
             raise PluginError(f"module {module_name!r} has no attribute {attr!r} (for {name!r})")
         obj = getattr(obj, part)
+    return obj
+
+
+class RefusedBehavior(PluginError):
+    """A behaviour spec outside the host's allowlist, or not naming a Behavior subclass."""
+
+
+def scenario_modules(specs) -> set[str]:
+    """The modules named by ``module:Class`` uses in an iterable of behaviour specs (dicts with ``use``)."""
+    return {s["use"].partition(":")[0] for s in specs if isinstance(s.get("use"), str) and ":" in s["use"]}
+
+
+def allowed(use: Any, allow: Collection[str] = ()) -> bool:
+    """True if ``use`` is a registered short name, a registered ``module:attr``, or in an allowed module.
+
+    An allowed module ``pkg`` also allows its submodules ``pkg.sub``.
+    """
+    if not isinstance(use, str) or not use:
+        return False
+    registered = available(BEHAVIORS)
+    if ":" not in use:
+        return use in registered
+    if use in registered.values():
+        return True
+    module = use.partition(":")[0]
+    return any(module == m or module.startswith(m + ".") for m in allow)
+
+
+def resolve_behavior(use: Any, allow: Collection[str] = ()) -> type:
+    """The Behavior subclass behind ``use``, refused (RefusedBehavior, nothing imported) outside the allowlist."""
+    from swarmactors.behavior import Behavior
+
+    if not allowed(use, allow):
+        raise RefusedBehavior(f"refused behaviour {use!r}: not a registered behaviour nor in a module this host "
+                              f"allows (allowed modules: {', '.join(sorted(allow)) or 'none'}; see --allow)")
+    obj = resolve(BEHAVIORS, use)
+    if not (isinstance(obj, type) and issubclass(obj, Behavior)):
+        raise RefusedBehavior(f"refused behaviour {use!r}: {type(obj).__name__} {obj!r} is not a Behavior subclass")
     return obj

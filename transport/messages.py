@@ -14,7 +14,7 @@ Wire names are short (a step crosses Zenoh every tick); attribute names say what
 from __future__ import annotations
 
 import math
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 import msgspec
 
@@ -227,17 +227,36 @@ class MoveArgs(_Message):
     pos: Point
 
 
-class AddedRobot(msgspec.Struct, omit_defaults=True):
-    """A robot to add: a position, plus any robot-group parameters (range, behaviours, ...)."""
+MAX_PER_REQUEST = 1000  # robots one ``add`` action or one mid-run join may create (the total: world.max_robots)
+MAX_ROBOTS = 10_000  # the default of the scenario key world.max_robots
+
+Positive = Annotated[float, msgspec.Meta(gt=0.0)]
+NonNegative = Annotated[float, msgspec.Meta(ge=0.0)]
+BehaviorSpec = Annotated[dict[str, Any], msgspec.Meta(min_length=1)]
+
+
+class AddedRobot(msgspec.Struct, forbid_unknown_fields=True, omit_defaults=True):
+    """A robot to add: a position, plus the robot-group parameters it may set, each typed (None: the default).
+
+    ``speed`` and ``turn_rate`` may be infinite (no cap); every other number must be finite.
+    """
 
     pos: Point
+    range: Positive | None = None
+    sensing: Positive | None = None
+    speed: Positive | None = None
+    turn_rate: Positive | None = None
+    noise: NonNegative | None = None
+    heading: float | None = None
+    kind: Literal["ground", "flying"] | None = None
+    behaviors: list[BehaviorSpec] | None = None
 
 
 # Every fault/world action, from a scenario's [[events]] or the control queryable: name -> argument type.
 ACTIONS: dict[str, Any] = {
     "kill": RobotId | Annotated[list[RobotId], msgspec.Meta(min_length=1)],
     "kill_fraction": Probability,
-    "add": Annotated[list[dict[str, Any]], msgspec.Meta(min_length=1)],
+    "add": Annotated[list[dict[str, Any]], msgspec.Meta(min_length=1, max_length=MAX_PER_REQUEST)],
     "cut": list[Pair],
     "restore": list[Pair],
     "partition": list[list[RobotId]],
@@ -250,7 +269,7 @@ ACTIONS: dict[str, Any] = {
 ACTION_SHAPES = {
     "kill": "a robot id or a list of robot ids",
     "kill_fraction": "a number in [0, 1]",
-    "add": "a list of robot specs, each with pos = [x, y]",
+    "add": f"a list of 1 to {MAX_PER_REQUEST} robot specs, each with pos = [x, y]",
     "cut": "a list of [a, b] robot id pairs",
     "restore": "a list of [a, b] robot id pairs",
     "partition": "a list of lists of robot ids",
@@ -285,12 +304,9 @@ def action_problem(action: dict, *, robots: int | None = None, dims: int = 3,
         ids = [i for group in arg for i in group]
     elif name == "add":
         for spec in arg:
-            try:
-                msgspec.convert(spec, AddedRobot, strict=True)
-            except msgspec.ValidationError as exc:
-                return f"add: {spec!r} is not a robot spec with pos = [x, y] ({exc})"
-            if not _finite_point(spec["pos"], dims):
-                return f"add: pos {spec['pos']!r} is not a finite point of at most {dims} coordinates"
+            problem = added_robot_problem(spec, dims)
+            if problem:
+                return f"add: {problem}"
     elif name == "move":
         if objects is not None and arg.object not in objects:
             return f"move: no object {arg.object!r} (objects: {sorted(objects)})"
@@ -300,6 +316,28 @@ def action_problem(action: dict, *, robots: int | None = None, dims: int = 3,
         bad = [i for i in ids if i >= robots]
         if bad:
             return f"{name}: no robot {bad[0]} (ids 0..{robots - 1})"
+    return None
+
+
+def added_robot_problem(spec: Any, dims: int = 3) -> str | None:
+    """Why ``spec`` is not a robot the world may add (AddedRobot, finite numbers, behaviours named), or None."""
+    try:
+        r = msgspec.convert(spec, AddedRobot, strict=True)
+    except msgspec.ValidationError as exc:
+        return f"{spec!r:.200} is not a robot spec with pos = [x, y] ({exc})"
+    if not _finite_point(r.pos, dims):
+        return f"pos {r.pos!r} is not a finite point of at most {dims} coordinates"
+    for name in ("range", "sensing", "noise", "heading"):
+        v = getattr(r, name)
+        if v is not None and not math.isfinite(v):
+            return f"{name} {v!r} is not finite"
+    for name in ("speed", "turn_rate"):
+        v = getattr(r, name)
+        if v is not None and math.isnan(v):
+            return f"{name} is not a number"
+    for b in r.behaviors or []:
+        if not isinstance(b.get("use"), str) or not b["use"]:
+            return f"behaviour spec {b!r:.200} has no use = \"name\" or \"module:Class\""
     return None
 
 

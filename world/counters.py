@@ -18,6 +18,8 @@ from transport.messages import DROP_CAUSES
 log = logging.getLogger("world")
 
 MALFORMED_EXAMPLES = 100  # reasons kept for result.json (every one is counted)
+SAMPLES_PER_TICK = 20  # reasons kept in a tick's trace record and logged, per cause (every one is counted)
+MORE_MALFORMED = "and more malformed messages, not stored:"  # the last ``mal`` entry of a flooded tick, with a count
 
 
 @dataclass
@@ -31,6 +33,7 @@ class Counters:
     received_by: dict[int, int] = field(default_factory=lambda: defaultdict(int))
     dropped_by: dict[int, dict[str, int]] = field(default_factory=lambda: defaultdict(lambda: defaultdict(int)))
     malformed: list[str] = field(default_factory=list)  # first reasons, for the result
+    refused: dict[str, int] = field(default_factory=lambda: defaultdict(int))  # refused requests by named cause
 
     def drop(self, src: int | None, cause: str, n: int = 1) -> None:
         self.dropped[cause] += n
@@ -44,6 +47,7 @@ class Counters:
             "dropped": dict(self.dropped),
             "dropped_total": sum(self.dropped.values()),
             "malformed_examples": self.malformed[:20],
+            "refused": dict(sorted(self.refused.items())),
         }
 
     def per_robot(self, n: int) -> dict[int, dict]:
@@ -62,10 +66,14 @@ class TickRecord:
         self.counters = counters
         self.publish_event = publish_event
         self.rec: dict[str, Any] = {}
+        self._mal_this_tick = 0
+        self._refused_this_tick: dict[str, int] = {}
 
     def take(self) -> dict:
         """The finished record; a new one begins."""
         rec, self.rec = self.rec, {}
+        self._mal_this_tick = 0
+        self._refused_this_tick = {}
         return rec
 
     def malformed(self, src: int | None, reason: str) -> None:
@@ -73,8 +81,26 @@ class TickRecord:
         self.counters.drop(src, "malformed")
         if len(self.counters.malformed) < MALFORMED_EXAMPLES:
             self.counters.malformed.append(reason)
-        self.rec.setdefault("mal", []).append(reason)
-        log.warning("malformed: %s", reason)
+        mal = self.rec.setdefault("mal", [])
+        self._mal_this_tick += 1
+        if self._mal_this_tick <= SAMPLES_PER_TICK:  # a flood is counted exactly, but stored and logged only so far
+            mal.append(reason)
+            log.warning("malformed: %s", reason)
+        else:  # the last entry says how many more there were
+            if self._mal_this_tick > SAMPLES_PER_TICK + 1:
+                mal.pop()
+            else:
+                log.warning("malformed: more than %d messages this tick; only counted from now", SAMPLES_PER_TICK)
+            mal.append(f"{MORE_MALFORMED} {self._mal_this_tick - SAMPLES_PER_TICK}")
+
+    def refused(self, tick: int, cause: str, reason: str) -> None:
+        """A request refused under a named cause: counted; the first of each tick recorded (an event) and logged."""
+        self.counters.refused[cause] += 1
+        seen = self._refused_this_tick
+        seen[cause] = seen.get(cause, 0) + 1
+        if seen[cause] <= SAMPLES_PER_TICK:
+            self.event(tick, {"refused": cause, "reason": reason})
+            log.warning("refused (%s): %s", cause, reason)
 
     def event(self, tick: int, ev: dict) -> None:
         """A world event (fault applied, robot failed or added, host lost)."""

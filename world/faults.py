@@ -13,13 +13,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from transport.messages import action_problem
+from transport.messages import MAX_ROBOTS, action_problem
 from world import rng
 from world.counters import TickRecord
 from world.radio import Medium
 from world.registry import HostEntry, Robots
 
 log = logging.getLogger("world")
+
+ROBOT_CAP = "robot_cap"  # an add or join that would exceed world.max_robots
+REQUEST_CAP = "request_cap"  # one add or mid-run join asking for more than MAX_PER_REQUEST robots
 
 
 @dataclass
@@ -34,7 +37,8 @@ class Faults:
     """Applies actions and crashes robots; tells each host which of its robots died."""
 
     def __init__(self, events: list[dict], seed: int, robots: Robots, hosts: dict[str, HostEntry],
-                 medium: Medium, objects: dict[str, list[float]], record: TickRecord):
+                 medium: Medium, objects: dict[str, list[float]], record: TickRecord,
+                 max_robots: int = MAX_ROBOTS):
         self.events = sorted(events, key=lambda e: e["at"])
         self._next_event = 0
         self.queued: list[dict] = []  # control actions, applied at the next tick
@@ -44,6 +48,11 @@ class Faults:
         self.medium = medium
         self.objects = objects
         self.record = record
+        self.max_robots = max_robots
+
+    def refuse(self, tick: int, cause: str, reason: str) -> None:
+        """A request refused under a named cause: counted (result.json ``world.refused``), logged, recorded."""
+        self.record.refused(tick, cause, reason)
 
     def problem(self, action: dict) -> str | None:
         """Why ``action`` cannot be applied to this world now, or None."""
@@ -86,6 +95,10 @@ class Faults:
             order = np.argsort(rng.uniform(self.seed, rng.PLACEMENT, tick, -1, alive), kind="stable")
             self._kill(sorted(alive[order[:k]].tolist()), source, tick)
         elif name == "add":
+            if len(self.robots) + len(value) > self.max_robots:
+                self.refuse(tick, ROBOT_CAP, f"{source} add of {len(value)} robot(s) at tick {tick}: the run "
+                                             f"would hold more than world.max_robots = {self.max_robots}")
+                return Applied()
             ids = self.robots.add(value, tick=tick)
             self.record.event(tick, {"added": ids, "source": source})
             return Applied(added=ids)

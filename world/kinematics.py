@@ -7,11 +7,38 @@ the commanded direction by at most ``turn_rate * dt`` and it advances along the
 new heading by ``|v| * dt * max(0, cos(remaining error))``, so it never drives
 away from where it was told to go (Kobayashi et al. cap 0.03 units and 0.15 rad
 per timestep). Positions are kept inside the world's bounds.
+
+Limits (issue 27): a velocity command must be finite and at most ``MAX_SPEED`` length units per second
+(whether or not its group has a cap; above the group's ``speed`` it is clipped to it); a position must stay
+finite and within ``MAX_COORD`` of the origin. The world crashes a robot that breaks either rule
+(``invalid_velocity``, ``invalid_position``) and the run goes on.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+MAX_SPEED = 1e6  # length units per second: the largest velocity command the world integrates
+MAX_COORD = 1e9  # length units: the largest |coordinate| a robot may reach
+
+
+def velocity_problem(vel: list[float], dims: int) -> str | None:
+    """Why a commanded velocity cannot be integrated (None if it can): 1..dims finite components, |v| <= MAX_SPEED."""
+    if not 1 <= len(vel) <= dims:
+        return f"has {len(vel)} components (1 to {dims})"
+    if not all(math.isfinite(v) for v in vel):
+        return "is not finite"
+    if math.hypot(*vel) > MAX_SPEED:
+        return f"exceeds the world's limit of {MAX_SPEED:g} length units per second"
+    return None
+
+
+def bad_positions(pos: np.ndarray, alive: np.ndarray) -> np.ndarray:
+    """Ids of alive robots whose position is not finite or beyond MAX_COORD."""
+    ok = np.isfinite(pos).all(axis=1) & (np.abs(pos) <= MAX_COORD).all(axis=1)
+    return np.flatnonzero(alive & ~ok)
 
 
 def integrate(

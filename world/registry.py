@@ -20,6 +20,7 @@ class HostEntry:
     robots: set[int] = field(default_factory=set)
     alive: bool = True
     reported: bool = False  # final reports received
+    registered: bool = False  # its registration step (tick -1) arrived (lockstep: once only)
     key: bytes = b""  # per-host uplink authentication key (transport.auth)
     pending_dead: list[int] = field(default_factory=list)  # robots that died since its last inputs
     pending_new: list = field(default_factory=list)  # RobotDescr of robots given to it since then

@@ -1,20 +1,26 @@
 """What the world takes from a host's uplink: the rules a decoded ``Uplink`` must still pass.
 
 ``transport.messages`` checks types and ranges. What needs the world's state is checked here, robot by
-robot: a host speaks only for the robots it runs; a dead robot's outputs are ignored; a velocity is finite
-and has at most ``dims`` components; a robot's frame sequence numbers increase. What fails is reported as a
-reason (counted as ``malformed`` by the world); the rest of the uplink is still used.
+robot: a host speaks only for the robots it runs; a dead robot's outputs are ignored; a velocity has 1 to
+``dims`` finite components and is within ``MAX_SPEED`` (world.kinematics), else its robot crashes; a robot's
+frame sequence numbers increase. What fails is reported as a reason (counted as ``malformed`` by the world);
+the rest of the uplink is still used.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from transport.messages import RobotOut
+from world.kinematics import velocity_problem
 from world.radio import Outgoing
+
+REFUSED_BEHAVIOR = "refused_behavior"  # a host refused to build a behaviour outside its allowlist (plugins)
+INVALID_VELOCITY = "invalid_velocity"  # a velocity command the world cannot integrate (world.kinematics)
+INVALID_POSITION = "invalid_position"  # a position that left the finite world (world.kinematics)
+COUNTED_CRASHES = (REFUSED_BEHAVIOR, INVALID_VELOCITY, INVALID_POSITION)
 
 
 @dataclass
@@ -42,18 +48,22 @@ def accept(host: str, rows: list[RobotOut], owned: set[int], alive: np.ndarray, 
         if not alive[rid] or rid in gone:
             continue
         if row.error is not None:
-            cause = "watchdog" if row.error.startswith("watchdog") else "crashed"
+            cause = ("watchdog" if row.error.startswith("watchdog")
+                     else REFUSED_BEHAVIOR if row.error.startswith("refused behaviour") else "crashed")
             out.crashes.append((rid, cause, row.error))
             gone.add(rid)
             continue
         if row.velocity is not None:
             vel = row.velocity
-            if 1 <= len(vel) <= dims and all(math.isfinite(v) for v in vel):
+            problem = velocity_problem(vel, dims)
+            if problem is None:
                 v = np.zeros(dims)
                 v[: len(vel)] = vel
                 out.velocities.append((rid, v))
-            else:
-                out.refused.append((rid, f"velocity of robot {rid} is {vel!r}"))
+            else:  # the robot's own command: it crashes, the run goes on
+                out.crashes.append((rid, INVALID_VELOCITY, f"velocity {vel!r} {problem}"))
+                gone.add(rid)
+                continue
         if row.status:
             out.statuses.append((rid, row.status))
         for f in row.frames:

@@ -34,6 +34,8 @@ import numpy as np
 from transport import Keys, Link, MalformedMessage, PendingQuery, new_key, pack, unseal
 from transport.messages import (
     CLOCK_COMMANDS,
+    MAX_PER_REQUEST,
+    MAX_ROBOTS,
     PROTOCOL_VERSION,
     Ack,
     ControlCommand,
@@ -55,12 +57,12 @@ from transport.messages import (
 from world import rng
 from world.clock import LockstepClock, RealtimeClock, make_clock
 from world.counters import Counters, TickRecord
-from world.faults import Faults
-from world.kinematics import integrate
+from world.faults import REQUEST_CAP, ROBOT_CAP, Faults
+from world.kinematics import MAX_COORD, bad_positions, integrate
 from world.radio import Medium, Outgoing, RadioConfig
 from world.registry import HostEntry, Robots
 from world.sensing import sense, within
-from world.uplink import accept
+from world.uplink import COUNTED_CRASHES, INVALID_POSITION, accept
 
 log = logging.getLogger(__name__)
 
@@ -113,8 +115,11 @@ class World:
         self.hosts: dict[str, HostEntry] = {}
         self.counters = Counters()
         self.record = TickRecord(self.counters, self._publish_event)
+        self.max_robots = int(wspec.get("max_robots", MAX_ROBOTS))
+        if len(self.robots) > self.max_robots:
+            raise ValueError(f"{len(self.robots)} robots exceed world.max_robots = {self.max_robots}")
         self.faults = Faults(spec.get("events", []), self.seed, self.robots, self.hosts, self.medium, self.objects,
-                             self.record)
+                             self.record, self.max_robots)
         self.started = False
         self.finished = False
         self.stop_reason: str | None = None
@@ -209,7 +214,9 @@ class World:
         self._awaited_tick = self.tick
         self._all_stepped.clear()
         for host in self._live_hosts():
-            _, q, _ = self._held.pop(host)
+            # a host that joined since the last tick may not have sent its registration step yet: it gets
+            # inputs from the tick after its registration arrives (_all_in counts a registration as in)
+            _, q, _ = self._held.pop(host, (None, None, None))
             if q is not None:
                 q.reply(encode(self._inputs_for(host, inbox)))
         await self._await_steps()
@@ -237,6 +244,11 @@ class World:
             self.robots.pos, self.robots.heading, self.robots.vel, self.robots.speed,
             self.robots.turn_rate, self.robots.alive, self.dt, self.bounds,
         )
+        for rid in bad_positions(self.robots.pos, self.robots.alive).tolist():  # the robot crashes, the run goes on
+            where = self.robots.pos[rid].tolist()
+            np.clip(np.nan_to_num(self.robots.pos[rid]), -MAX_COORD, MAX_COORD, out=self.robots.pos[rid])
+            self.counters.refused[INVALID_POSITION] += 1
+            self.faults.crash(rid, self.tick, INVALID_POSITION, f"position {where!r} beyond the world's limit")
 
     def _inputs_for(self, host: str, inbox: dict[int, list] | None) -> Inputs:
         """Step 3: one host's inputs for this tick (each frame body once per host)."""
@@ -292,7 +304,9 @@ class World:
     # ------------------------------------------------------------ joining
     def _on_join(self, q: PendingQuery) -> None:
         try:
-            req = decode(q.payload, JoinRequest, what="join request") if q.payload else JoinRequest()
+            if not q.payload:
+                raise MalformedMessage("empty join request (a host sends a JoinRequest map)")
+            req = decode(q.payload, JoinRequest, what="join request")
         except MalformedMessage as exc:
             self.record.malformed(None, str(exc))
             q.reply_error(str(exc))
@@ -306,8 +320,17 @@ class World:
             take = len(self.unclaimed) if req.count is None else min(req.count, len(self.unclaimed))
             ids, self.unclaimed = self.unclaimed[:take], self.unclaimed[take:]
         else:
+            want = req.count or 1
+            cause = (REQUEST_CAP if want > MAX_PER_REQUEST
+                     else ROBOT_CAP if len(self.robots) + want > self.max_robots else None)
+            if cause:
+                reason = (f"join asking for {want} robots at tick {self.tick} (at most {MAX_PER_REQUEST} per join, "
+                          f"{self.max_robots} in the run)")
+                self.faults.refuse(self.tick, cause, reason)
+                q.reply_error(reason)
+                return
             template = dict(self.spec["robots"][0]) if self.spec["robots"] else {}
-            specs = [self._placed_like(template) for _ in range(req.count or 1)]
+            specs = [self._placed_like(template) for _ in range(want)]
             ids = self.robots.add(specs, tick=self.tick)
             self.record.event(self.tick, {"added": ids, "source": "join"})
         for rid in ids:
@@ -340,9 +363,12 @@ class World:
         try:
             await asyncio.wait_for(self._ready.wait(), self.join_timeout_s)
         except TimeoutError:
+            claimed = ", ".join(f"{h.name} ({len(h.robots)})" for h in self.hosts.values()) or "none"
+            waiting = [h for h in self._live_hosts() if h not in self._held]
             raise RuntimeError(
                 f"{len(self.unclaimed)} robot(s) were not claimed by any host within "
-                f"{self.join_timeout_s:.0f} s (robot hosts must join {self.keys.join})"
+                f"{self.join_timeout_s:.0f} s (robot hosts must join {self.keys.join}); hosts that claimed "
+                f"robots: {claimed}" + (f"; never registered: {', '.join(waiting)}" if waiting else "")
             ) from None
 
     # ------------------------------------------------------------ uplinks
@@ -367,6 +393,13 @@ class World:
             self.record.malformed(None, f"second step from {host} while one is pending (tick {msg.tick})")
             q.reply_error("a step from this host is already pending")
             return
+        problem = self._step_problem(entry, msg)
+        if problem:  # stale, future or repeated: never held, so it cannot stand in for the awaited step
+            self.record.malformed(None, f"step from {host}: {problem}")
+            q.reply_error(problem)
+            return
+        if msg.tick == -1:
+            entry.registered = True
         if msg.reports is not None:
             self._take_reports(host, msg.reports)
         self._held[host] = (msg.tick, q, msg)
@@ -374,6 +407,21 @@ class World:
             self._check_ready()
         elif self._all_in():
             self._all_stepped.set()
+
+    def _step_problem(self, entry: HostEntry, msg: Uplink) -> str | None:
+        """Why a lockstep step is not the one awaited from this host (None if it is).
+
+        A host registers once (tick -1), then steps exactly the awaited tick; its final report (``reports``)
+        comes after the last tick.
+        """
+        if msg.tick == -1:
+            return "registered already" if entry.registered else None
+        if msg.reports is not None:
+            return None if msg.tick > self._awaited_tick else f"report for tick {msg.tick} before the end"
+        if not self.started or msg.tick != self._awaited_tick:
+            what = "stale" if msg.tick < self._awaited_tick else "future"
+            return f"{what} step for tick {msg.tick} (awaited: {self._awaited_tick if self.started else -1})"
+        return None
 
     def _on_up_put(self, key: str, payload: bytes) -> None:
         host = self.keys.host_of(key)
@@ -412,6 +460,8 @@ class World:
         for rid, reason in got.refused:
             self.record.malformed(rid, reason)
         for rid, cause, error in got.crashes:
+            if cause in COUNTED_CRASHES:
+                self.counters.refused[cause] += 1
             self.faults.crash(rid, self.tick, cause, error)
         for rid, v in got.velocities:
             self.robots.vel[rid] = v
@@ -570,6 +620,15 @@ class World:
             clock.run_to(target)
             return {"ok": True, "until": target}
         action = {name: cmd.args}
+        if name == "add" and isinstance(cmd.args, list):  # caps first: refused under their own cause
+            n, queued = len(cmd.args), sum(len(a["add"]) for a in self.faults.queued if "add" in a)
+            cause = (REQUEST_CAP if n > MAX_PER_REQUEST
+                     else ROBOT_CAP if len(self.robots) + queued + n > self.max_robots else None)
+            if cause:
+                reason = (f"control add of {n} robots (at most {MAX_PER_REQUEST} per add, "
+                          f"{self.max_robots} in the run)")
+                self.faults.refuse(self.tick, cause, reason)
+                return {"ok": False, "error": reason}
         problem = self.faults.problem(action)
         if problem:
             raise ValueError(problem)
@@ -602,10 +661,12 @@ class World:
 
     def _all_in(self) -> bool:
         """Every live host has a step pending for the awaited tick (or has just joined: tick -1)."""
-        return all(
-            h in self._held and (self._held[h][0] >= self._awaited_tick or self._held[h][0] == -1)
-            for h in self._live_hosts()
-        )
+        return all(self._stepped(h) for h in self._live_hosts())
+
+    def _stepped(self, host: str) -> bool:
+        """The host has the awaited step (or its registration, or its final report) pending."""
+        held = self._held.get(host)
+        return held is not None and (held[0] >= self._awaited_tick or held[0] == -1)
 
     async def _await_steps(self) -> None:
         """Wait for every live host's step; a host silent past the watchdog loses its robots."""
@@ -616,7 +677,7 @@ class World:
             await asyncio.wait_for(self._all_stepped.wait(), limit)
         except TimeoutError:
             for host in self._live_hosts():
-                if host not in self._held:
+                if not self._stepped(host):  # whatever else it sent
                     log.error("host %s did not finish tick %d within %.1f s", host, self.tick, limit)
                     self._lose_host(host, "watchdog")
 
