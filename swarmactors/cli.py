@@ -17,8 +17,9 @@ from pathlib import Path
 
 from rich.console import Console
 
+from swarmactors import export as export_cli
+from swarmactors import newproject, schedule_cli
 from swarmactors import scenario as scenario_mod
-from swarmactors import schedule_cli
 from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME
 from swarmactors.launcher import new_run_id, run_world, serve_host
 from swarmactors.plugins import BEHAVIORS, resolve
@@ -128,6 +129,8 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument("--keep", choices=["all", "failed", "none"], default="failed",
                        help="which trials keep their result.json and trace (default: failed)")
     schedule_cli.add_parser(sub)
+    export_cli.add_parser(sub)  # swarmactors export RUN (issue 26)
+    newproject.add_parser(sub)  # swarmactors new NAME (issue 26)
     return p
 
 
@@ -158,6 +161,8 @@ def main(argv: list[str] | None = None) -> int:
             return _check(args, err)
         if args.command == "schedule":
             return schedule_cli.command(args)  # exit codes as documented there (0, 1, 2, 3)
+        if args.command in ("export", "new"):
+            return (export_cli if args.command == "export" else newproject).command(args)
         if args.command in ("view", "replay", "sweep"):
             from swarmactors.see import command  # the viewer, replays and sweeps (docs/viewer.md)
 
@@ -218,7 +223,7 @@ def _run(args, sc: dict, err: Console) -> int:
             result = asyncio.run(run_world(sc, out_dir, endpoints, run_id, processes=sc["run"]["processes"],
                                            local_host=local, on_tick=progress.on_tick))
     field = _plot_field(sc)
-    if result.trace_path is not None or result["robots"]:
+    if not args.no_plots and (result.trace_path is not None or result["robots"]):
         try:
             from swarmactors.plots import plot_run  # matplotlib is slow to import: only when plotting
 
@@ -227,8 +232,10 @@ def _run(args, sc: dict, err: Console) -> int:
             err.print(f"[yellow]plot skipped:[/] {exc}")
     if not args.no_plots and result.trace_path is not None:
         from swarmactors.see import write_run_charts
+        from swarmactors.trajectories import write_trajectories
 
         write_run_charts(result, out_dir, field, err)
+        write_trajectories(result, out_dir, err)
     if args.json:
         print(json.dumps({k: result.data[k] for k in ("run_id", "ticks", "wall_s", "trace_hash", "world",
                                                      "metrics", "checks", "interrupted")}))

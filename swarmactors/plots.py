@@ -1,4 +1,10 @@
-"""The run plot: robot positions, radio links, and a status field as colour."""
+"""The run plot: robot positions, radio links, and a status field as colour.
+
+Drawn to scale with the swarm: all links are one ``LineCollection`` and all robots one scatter per group
+(with / without the field, failed), so 10,000 robots take about as long as 50 (docs/benchmarks.md). Ids are
+written only when they can be read (N <= ``LABEL_MAX`` or ``labels=True``). A status field whose values are
+strings or booleans gets a categorical legend; a numeric one a colour bar.
+"""
 
 from __future__ import annotations
 
@@ -9,51 +15,157 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib import patheffects  # noqa: E402
+from matplotlib.collections import LineCollection  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
 
 from swarmactors.result import Result  # noqa: E402
 
+LABEL_MAX = 60  # ids are drawn only up to this many robots (unless asked for)
+CATEGORY_MAX = 20  # more distinct categorical values than this fall back to "other"
 
-def plot_run(result: Result, path: Path, field: str | None = None, tick: int | None = None) -> Path:
-    """Draw the swarm at ``tick`` (default: the origination-free final tick) coloured by status ``field``."""
+
+def is_categorical(values: list) -> bool:
+    """True when a status field's values are labels (strings, booleans, or mixed types), not quantities."""
+    kinds = {type(v) for v in values if v is not None}
+    if not kinds:
+        return False
+    return not kinds <= {int, float} or bool in kinds
+
+
+def marker_size(n: int) -> float:
+    """Scatter marker area (points^2) that keeps a swarm of ``n`` robots readable."""
+    return float(np.clip(9000.0 / max(n, 1), 2.0, 90.0))
+
+
+def swarm_links(result: Result, tick: int) -> list[tuple[int, int]]:
+    """The links of the swarm at ``tick`` (undirected, as ``Result.graph_at``)."""
+    return list(result.graph_at(tick).edges)
+
+
+def plot_run(result: Result, path: Path, field: str | None = None, tick: int | None = None,
+             labels: bool | None = None) -> Path:
+    """Draw the swarm at ``tick`` (default: the last recorded tick) coloured by status ``field``.
+
+    Args:
+        result: a finished run.
+        path: the PNG to write.
+        field: status field that colours robots (None: plain discs).
+        tick: tick to draw (needs the trace); default the last tick, or the final poses without a trace.
+        labels: write robot ids; default only when there are at most ``LABEL_MAX`` robots.
+
+    Returns:
+        ``path``.
+    """
     robots = result.robots
     if result.trace_path is not None:
         rec = result.trace[-1] if tick is None else result.record(tick)
         t = rec["t"]
         pos = {row[0]: row[1:3] for row in rec.get("pos", [])}
-        g = result.graph_at(t)
+        edges = swarm_links(result, t)
     else:
         t = result["ticks"]
         pos = {rid: r["pose"][:2] for rid, r in robots.items() if r["alive"]}
-        g = None
+        edges = []
+    values = {rid: robots[rid].get("status", {}).get(field) for rid in pos if rid in robots} if field else {}
+    dead = {rid: robots[rid]["pose"][:2] for rid, r in robots.items() if not r["alive"]}
+    title = f"{result['scenario']['run']['name']} at tick {t}: links and {field or 'positions'}"
+    return draw_swarm(path, pos, edges, field, values, dead, title, labels)
+
+
+def draw_swarm(path: Path, pos: dict[int, tuple], edges: list[tuple[int, int]], field: str | None = None,
+               values: dict[int, object] | None = None, dead: dict[int, tuple] | None = None, title: str = "",
+               labels: bool | None = None) -> Path:
+    """Draw robots at ``pos`` (id -> (x, y)), ``edges`` between them, coloured by ``values`` of ``field``.
+
+    Args:
+        path: the PNG to write.
+        pos: positions of the alive robots.
+        edges: links as id pairs (pairs with an unknown end are skipped).
+        field: name of the colouring field, for the legend or colour bar.
+        values: the field's value per robot (missing or None: a white disc).
+        dead: positions of failed robots, drawn as red crosses.
+        title: the axes' title.
+        labels: write ids; default only when ``len(pos) <= LABEL_MAX``.
+
+    Returns:
+        ``path``.
+    """
+    values = values or {}
+    dead = dead or {}
+    n = len(pos) + len(dead)
+    size = marker_size(n)
     fig, ax = plt.subplots(figsize=(7, 6.5), dpi=110)
-    if g is not None:
-        for a, b in g.edges:
-            if a in pos and b in pos:
-                ax.plot(*zip(pos[a], pos[b], strict=True), color="0.8", lw=0.8, zorder=1)
-    values = {rid: robots[rid].get("status", {}).get(field) for rid in pos} if field else {}
+    segs = [(*pos[a][:2], *pos[b][:2]) for a, b in edges if a in pos and b in pos]
+    if segs:
+        # one path through every link, broken by NaNs: one artist, one path (a path per link costs ~30 us)
+        ends = np.asarray(segs, dtype=float).reshape(-1, 2, 2)
+        line = np.concatenate([ends, np.full((len(ends), 1, 2), np.nan)], axis=1).reshape(-1, 2)
+        lw = 0.8 if n <= 500 else 0.3
+        ax.add_collection(LineCollection([line], colors="0.75", linewidths=lw, zorder=1))
+    edge_kw = {"edgecolors": "k", "linewidths": 0.5} if n <= 2000 else {"linewidths": 0}
     have = [rid for rid in pos if values.get(rid) is not None]
     lack = [rid for rid in pos if values.get(rid) is None]
+    handles = []
     if have:
-        xy = np.array([pos[r] for r in have])
-        sc = ax.scatter(xy[:, 0], xy[:, 1], c=[values[r] for r in have], cmap="viridis", s=90, zorder=3,
-                        edgecolors="k")
-        fig.colorbar(sc, ax=ax, label=field)
+        xy = np.array([pos[r] for r in have], dtype=float)
+        vals = [values[r] for r in have]
+        if is_categorical(vals):
+            cats = sorted({str(v) for v in vals}, key=_natural)
+            if len(cats) > CATEGORY_MAX:
+                cats = cats[:CATEGORY_MAX - 1] + ["other"]
+            index = {c: i for i, c in enumerate(cats)}
+            cmap = plt.get_cmap("tab10" if len(cats) <= 10 else "tab20")
+            codes = np.array([index.get(str(v), len(cats) - 1) for v in vals])
+            ax.scatter(xy[:, 0], xy[:, 1], c=cmap(codes), s=size, zorder=3, **edge_kw)
+            handles += [Line2D([], [], marker="o", ls="", color=cmap(i), markeredgecolor="k", label=c)
+                        for i, c in enumerate(cats)]
+        else:
+            sc = ax.scatter(xy[:, 0], xy[:, 1], c=np.asarray(vals, dtype=float), cmap="viridis", s=size,
+                            zorder=3, **edge_kw)
+            fig.colorbar(sc, ax=ax, label=field)
     if lack:
-        xy = np.array([pos[r] for r in lack])
-        ax.scatter(xy[:, 0], xy[:, 1], c="white", s=90, zorder=3, edgecolors="0.4",
-                   label=f"no {field}" if field else "robot")
-        ax.legend(loc="upper right")
-    dead = [rid for rid, r in robots.items() if not r["alive"]]
+        xy = np.array([pos[r] for r in lack], dtype=float)
+        ax.scatter(xy[:, 0], xy[:, 1], c="white", s=size, zorder=3, **({"edgecolors": "0.4"} | edge_kw))
+        handles.append(Line2D([], [], marker="o", ls="", color="white", markeredgecolor="0.4",
+                              label=f"no {field}" if field else "robot"))
     if dead:
-        xy = np.array([robots[r]["pose"][:2] for r in dead])
-        ax.scatter(xy[:, 0], xy[:, 1], marker="x", c="red", s=60, zorder=4, label="failed")
-    for rid, (x, y) in pos.items():
-        ax.annotate(str(rid), (x, y), fontsize=6, ha="center", va="center", zorder=5)
+        xy = np.array(list(dead.values()), dtype=float)
+        ax.scatter(xy[:, 0], xy[:, 1], marker="x", c="red", s=max(size * 0.7, 4), zorder=4)
+        handles.append(Line2D([], [], marker="x", ls="", color="red", label="failed"))
+    if labels if labels is not None else n <= LABEL_MAX:
+        halo = [patheffects.withStroke(linewidth=1.6, foreground="white")]  # readable on dark discs too
+        for rid, (x, y) in pos.items():
+            ax.text(x, y, str(rid), fontsize=6, ha="center", va="center", zorder=5, color="black",
+                    path_effects=halo)
+    if handles:
+        ax.legend(handles=handles, title=field if field and len(handles) > 1 else None, loc="upper left",
+                  bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    _limits(ax, [*pos.values(), *dead.values()])
     ax.set_aspect("equal")
     ax.set_xlabel("x (length units)")
     ax.set_ylabel("y (length units)")
-    ax.set_title(f"{result['scenario']['run']['name']} at tick {t}: links and {field or 'positions'}")
+    ax.set_title(title)
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+def _limits(ax, points: list) -> None:
+    """Axis limits around every robot with a margin (cheaper than autoscaling thousands of markers)."""
+    if not points:
+        return
+    xy = np.asarray([p[:2] for p in points], dtype=float)
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    pad = np.maximum((hi - lo) * 0.05, 0.5)
+    ax.set_xlim(lo[0] - pad[0], hi[0] + pad[0])
+    ax.set_ylim(lo[1] - pad[1], hi[1] + pad[1])
+
+
+def _natural(label: str) -> tuple:
+    """Sort numeric-looking labels by value, the rest alphabetically after them."""
+    try:
+        return (0, float(label), "")
+    except ValueError:
+        return (1, 0.0, label)

@@ -191,3 +191,15 @@ class Result:
                 elif d[b] <= ranges[ids[b]]:
                     g.add_edge(ids[a], ids[b])
         return g
+
+    def poses(self):
+        """Per-tick per-robot positions and status fields as a pandas DataFrame (needs pandas; swarmactors.export)."""
+        from swarmactors.export import poses_frame
+
+        return poses_frame(self)
+
+    def frame_log(self):
+        """Every frame sent, delivered and dropped as a pandas DataFrame (``frames(rid)``: one robot's counters)."""
+        from swarmactors.export import frames_frame
+
+        return frames_frame(self)
