@@ -107,6 +107,7 @@ def draw_swarm(path: Path, pos: dict[int, tuple], edges: list[tuple[int, int]], 
     have = [rid for rid in pos if values.get(rid) is not None]
     lack = [rid for rid in pos if values.get(rid) is None]
     handles = []
+    colorbar = False
     if have:
         xy = np.array([pos[r] for r in have], dtype=float)
         vals = [values[r] for r in have]
@@ -124,6 +125,7 @@ def draw_swarm(path: Path, pos: dict[int, tuple], edges: list[tuple[int, int]], 
             sc = ax.scatter(xy[:, 0], xy[:, 1], c=np.asarray(vals, dtype=float), cmap="viridis", s=size,
                             zorder=3, **edge_kw)
             fig.colorbar(sc, ax=ax, label=field)
+            colorbar = True
     if lack:
         xy = np.array([pos[r] for r in lack], dtype=float)
         ax.scatter(xy[:, 0], xy[:, 1], c="white", s=size, zorder=3, **({"edgecolors": "0.4"} | edge_kw))
@@ -139,8 +141,13 @@ def draw_swarm(path: Path, pos: dict[int, tuple], edges: list[tuple[int, int]], 
             ax.text(x, y, str(rid), fontsize=6, ha="center", va="center", zorder=5, color="black",
                     path_effects=halo)
     if handles:
-        ax.legend(handles=handles, title=field if field and len(handles) > 1 else None, loc="upper left",
-                  bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+        title = field if field and len(handles) > 1 else None
+        if colorbar:  # the colour bar holds the right side: the legend goes under the x label
+            ax.legend(handles=handles, title=title, loc="upper center", bbox_to_anchor=(0.5, -0.1),
+                      ncol=min(len(handles), 4), fontsize=8, frameon=False)
+        else:
+            ax.legend(handles=handles, title=title, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8,
+                      frameon=False)
     _limits(ax, [*pos.values(), *dead.values()])
     ax.set_aspect("equal")
     ax.set_xlabel("x (length units)")
