@@ -101,7 +101,8 @@ def main(argv: list[str] | None = None) -> int:
         summary[name] = {k: statistics.median(r[k] for r in rs) for k in ("world_us", "hosts_us")}
     hashes = {r["hash"] for rs in runs.values() for r in rs}
     ratio = {k: summary["new"][k] / summary["base"][k] for k in ("world_us", "hosts_us")}
-    result = {"base": args.base, "new": args.new or "working tree", "n": args.n, "ticks": [args.short, args.long], "repeats": args.repeats,
+    result = {"base": args.base, "new": args.new or "working tree", "n": args.n, "ticks": [args.short, args.long],
+              "repeats": args.repeats,
               "median": summary, "ratio_new_over_base": ratio, "same_trace_hash": len(hashes) == 1,
               "runs": runs, "cpus": os.cpu_count()}
     args.out.parent.mkdir(parents=True, exist_ok=True)
