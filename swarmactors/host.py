@@ -28,7 +28,8 @@ import numpy as np
 from swarmactors.behavior import Behavior, Context, Frame, Sensed
 from swarmactors.plugins import RefusedBehavior, resolve_behavior
 from swarmactors.tasks import TaskSet
-from transport import Keys, Link, MalformedMessage, pack, seal
+from transport import Keys, Link, MalformedMessage, pack, seal, unseal
+from transport.auth import run_secret_from_env, verifies
 from transport.messages import (
     Deliveries,
     Downlink,
@@ -266,9 +267,16 @@ class FrameTable:
 class RobotHost:
     """Joins the world and runs its robots until the world says stop."""
 
-    def __init__(self, link: Link, keys: Keys, count: int | None = None, allow: Collection[str] = ()):
-        """``allow``: the modules whose Behavior subclasses this host may build, beside registered entry points."""
+    def __init__(self, link: Link, keys: Keys, count: int | None = None, allow: Collection[str] = (),
+                 run_secret: bytes | None = None):
+        """``allow``: the modules whose Behavior subclasses this host may build, beside registered entry points.
+
+        ``run_secret`` (default: ``SWARMACTORS_RUN_SECRET``) authenticates the join reply; without it the join
+        reply, and so the key that authenticates downlinks, is taken on trust.
+        """
         self.allow = frozenset(allow)
+        self.run_secret = run_secret if run_secret is not None else run_secret_from_env()
+        self.bad_downlinks = 0  # downlinks and join replies dropped because they did not verify
         self.link = link
         self.keys = keys
         self.count = count
@@ -286,9 +294,13 @@ class RobotHost:
         deadline = time.monotonic() + timeout
         while True:
             try:
-                reply = await self.link.query(self.keys.join, req, timeout=5.0)
+                reply = await self.link.query(self.keys.join, req, timeout=5.0,
+                                              accept=self._verify_join if self.run_secret else None)
+                if self.run_secret:
+                    reply = unseal(self.run_secret, reply, what="join reply")
                 break
             except Exception as exc:
+                log.info("join of %s failed: %s", self.keys.join, exc)
                 if time.monotonic() > deadline:
                     raise RuntimeError(f"could not join {self.keys.join}: {exc}") from None
                 await asyncio.sleep(0.2)
@@ -332,8 +344,20 @@ class RobotHost:
         # each robot its own dict, with the objects it knows
         ctx.objects = {name: list(pos) for name, pos in objects.items() if known is None or name in known}
 
+    def _verify_join(self, data: bytes) -> bool:
+        return self._verify(self.run_secret, data)
+
+    def _verify(self, key: bytes, data: bytes) -> bool:
+        """A reply or downlink sealed under ``key``; anything else is counted and dropped."""
+        if verifies(key, data):
+            return True
+        self.bad_downlinks += 1
+        log.warning("host %s dropped a downlink that fails authentication (%d so far)", self.name, self.bad_downlinks)
+        return False
+
     async def _ask(self, uplink: str, data: bytes, timeout: float) -> Downlink:  # noqa: ASYNC109 — a Zenoh query's own timeout
-        return decode(await self.link.query(uplink, data, timeout=timeout), Downlink, what="downlink")
+        reply = await self.link.query(uplink, data, timeout=timeout, accept=lambda d: self._verify(self.key, d))
+        return decode(unseal(self.key, reply, what="downlink"), Downlink, what="downlink")
 
     # -- lockstep --------------------------------------------------------------
     async def _run_lockstep(self) -> None:
@@ -381,6 +405,9 @@ class RobotHost:
 
     async def _send_reports(self, uplink: str) -> None:
         reports = {rid: r.report() for rid, r in self.robots.items()}
+        if self.bad_downlinks:
+            for rep in reports.values():
+                rep["_bad_downlinks"] = self.bad_downlinks  # this host's count, in each of its robots' report
         try:
             await self.link.query(uplink, self._uplink(self.tick + 1, (), reports), timeout=30.0)
         except Exception as exc:
@@ -421,8 +448,10 @@ class RobotHost:
         return time.time() - (self._epoch or time.time())
 
     def _on_down(self, key: str, payload: bytes) -> None:
+        if not self._verify(self.key, payload):
+            return
         try:
-            msg = decode(payload, Downlink, what="downlink")
+            msg = decode(unseal(self.key, payload, what="downlink"), Downlink, what="downlink")
         except MalformedMessage as exc:
             log.warning("%s", exc)
             return

@@ -28,7 +28,8 @@ from swarmactors.plugins import scenario_modules
 from swarmactors.result import Result, package_version, to_jsonable
 from swarmactors.scenario import world_spec
 from swarmactors.trace import TraceWriter
-from transport import Endpoints, Keys, Link
+from transport import Endpoints, Keys, Link, new_key
+from transport.auth import RUN_SECRET_ENV, run_secret_from_env
 from world import POS_DIGITS, World
 
 log = logging.getLogger(__name__)
@@ -103,8 +104,15 @@ async def run_world(
     local_host: bool = True,
     on_tick: Callable[[World], None] | None = None,
     on_open: Callable[[World, Link], None] | None = None,
+    run_secret: bytes | None = None,
 ) -> Result:
-    """Run a resolved scenario's world (and, if asked, its hosts) to a Result on disk."""
+    """Run a resolved scenario's world (and, if asked, its hosts) to a Result on disk.
+
+    ``run_secret`` seals the join replies (transport.auth); default: ``SWARMACTORS_RUN_SECRET`` if set, else a
+    fresh one when this run starts its own hosts (``local_host``), which get it through the environment.
+    """
+    if run_secret is None:
+        run_secret = run_secret_from_env() or (new_key() if local_host else None)
     out_dir.mkdir(parents=True, exist_ok=True)  # noqa: ASYNC240 — one quick mkdir before the world opens
     keys = Keys(run_id)
     trace_path = out_dir / "trace.msgpack" if sc["run"]["trace"] else None
@@ -117,7 +125,7 @@ async def run_world(
     procs: list[multiprocessing.Process] = []
     loop = asyncio.get_running_loop()
     with Link(endpoints, loop) as link:
-        world = World(world_spec(sc), link, keys, sinks=[writer], on_tick=on_tick)
+        world = World(world_spec(sc), link, keys, sinks=[writer], on_tick=on_tick, run_secret=run_secret)
         world.open()
         if on_open:
             on_open(world, link)
@@ -136,13 +144,13 @@ async def run_world(
             k = min(processes, n)
             if k > 0:
                 endpoint = link.locators()[0]
-                procs = spawn_hosts(endpoint, run_id, split(n, k), allowed_modules(sc))
+                procs = spawn_hosts(endpoint, run_id, split(n, k), allowed_modules(sc), run_secret)
             with quiet_gc():
                 try:
                     async with asyncio.TaskGroup() as tg:
                         tg.create_task(world.run())
                         if k == 0 and local_host:
-                            tg.create_task(_local_host(link, keys, allowed_modules(sc)))
+                            tg.create_task(_local_host(link, keys, allowed_modules(sc), run_secret))
                 except BaseExceptionGroup as group:  # report the first failure as itself (e.g. robots never claimed)
                     raise group.exceptions[0] from None
         finally:
@@ -164,22 +172,41 @@ async def run_world(
     return result
 
 
-async def _local_host(link: Link, keys: Keys, allow: Collection[str] = ()) -> None:
-    host = RobotHost(link, keys, allow=allow)
+async def _local_host(link: Link, keys: Keys, allow: Collection[str] = (), run_secret: bytes | None = None) -> None:
+    host = RobotHost(link, keys, allow=allow, run_secret=run_secret)
     await host.join()
     await host.run()
 
 
-def spawn_hosts(endpoint: str, run_id: str, counts: list[int],
-                allow: Collection[str] = ()) -> list[multiprocessing.Process]:
-    """Start one host process per count, with the ``spawn`` method and a fixed hash seed; ``allow`` as serve_host."""
+def spawn_hosts(endpoint: str, run_id: str, counts: list[int], allow: Collection[str] = (),
+                run_secret: bytes | None = None) -> list[multiprocessing.Process]:
+    """Start one host process per count (``spawn`` method, fixed hash seed); ``allow`` as serve_host.
+
+    ``run_secret`` reaches the children through their environment (``SWARMACTORS_RUN_SECRET``), not argv.
+    """
     ctx = multiprocessing.get_context("spawn")
     allow = tuple(sorted(allow))
-    with fixed_hash_seed():
+    with fixed_hash_seed(), _env(RUN_SECRET_ENV, run_secret.hex() if run_secret else None):
         procs = [ctx.Process(target=host_process, args=(endpoint, run_id, c, allow), daemon=True) for c in counts]
         for p in procs:
             p.start()
     return procs
+
+
+@contextmanager
+def _env(name: str, value: str | None):
+    """Set (or leave alone, if None) an environment variable for processes started inside."""
+    previous = os.environ.get(name)
+    if value is not None:
+        os.environ[name] = value
+    try:
+        yield
+    finally:
+        if value is not None:
+            if previous is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = previous
 
 
 @contextmanager

@@ -11,19 +11,23 @@ from __future__ import annotations
 import asyncio
 import math
 import sys
+import threading
 import time
 
 import numpy as np
 import pytest
+import zenoh
 
 from swarmactors.behavior import Behavior
 from swarmactors.host import Robot
+from swarmactors.launcher import new_run_id, run_world
 from swarmactors.plugins import BEHAVIORS, RefusedBehavior, allowed, available, resolve_behavior
 from swarmactors.scenario import resolve_scenario, world_spec
 from test_bad_input import FLOOD_RAW, PAUSE_AT, FakeLink, FakeQuery, WireRun, _get, _HostThread
-from transport import Keys, pack, seal, unpack
+from transport import Endpoints, Keys, make_config, pack, seal, unpack
 from transport.messages import (
     MAX_PER_REQUEST,
+    Inputs,
     JoinReply,
     JoinRequest,
     RobotDescr,
@@ -341,3 +345,79 @@ def test_empty_join_is_refused_and_the_error_names_the_claimers():
     assert ok.replies[0][0] == "ok"
     with pytest.raises(RuntimeError, match=r"1 robot\(s\) were not claimed.*h0 \(2\).*never registered: h0"):
         asyncio.run(w._wait_ready())
+
+
+# ------------------------------------------------------------------ 7. downlink authentication
+def _beacons_raw(clock: str = "lockstep") -> dict:
+    run = {"name": "auth", "seed": 5, "clock": clock, "ticks": 15, "dt": 0.05, "watchdog_s": 2.0, "join_timeout_s": 20}
+    return {"run": run, "radio": {"range": 1.0, "latency": 1, "latency_s": 0.02},
+            "robots": [{"positions": [[0.6 * i, 0.0] for i in range(6)], "behaviors": [{"use": "beacon"}]}]}
+
+
+def _run_world(raw: dict, out, on_open=None):
+    sc = resolve_scenario(raw, "<attack>")
+    endpoints = Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"])
+    return asyncio.run(run_world(sc, out, endpoints, new_run_id("auth"), processes=0, on_open=on_open))
+
+
+def _forged_inputs(marker) -> Inputs:
+    evil = RobotDescr(99, [0.0, 0.0, 0.0], [{"use": "os:system", "command": f"touch {marker}"}], "ground",
+                      1.0, 1.0, 1.0)
+    return Inputs(tick=2, new=[evil])
+
+
+class _Rogue:
+    """A local user's Zenoh session: answers ``world/join`` and every step query first, and publishes downlinks."""
+
+    def __init__(self, endpoint: str, keys: Keys, marker):
+        self.z = zenoh.open(make_config(Endpoints(mode="peer", connect=[endpoint])))
+        self.keys, self.answered = keys, 0
+        run = RunInfo("lockstep", 1.0, 0, 15, 2.0, 0)
+        fake = JoinReply("h0", bytes(32), 2, [RobotDescr(0, [9.0, 9.0, 0.0], [{"use": "beacon"}], "ground",
+                                                         1.0, 1.0, 1.0)], run)
+        self.join_reply, self.down = encode(fake), encode(_forged_inputs(marker))
+        self.q1 = self.z.declare_queryable(keys.join, self._answer(self.join_reply))
+        self.q2 = self.z.declare_queryable(keys.up_all, self._answer(seal(bytes(32), self.down)))
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self._publish, daemon=True)
+        self.thread.start()
+
+    def _answer(self, payload: bytes):
+        def on_query(query) -> None:
+            self.answered += 1
+            query.reply(query.key_expr, payload)
+        return on_query
+
+    def _publish(self) -> None:
+        while not self.stop.wait(0.01):
+            self.z.put(self.keys.down("h0"), self.down)
+
+    def close(self) -> None:
+        self.stop.set()
+        self.thread.join(5)
+        self.z.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("clock", ["lockstep", "realtime"])
+def test_attack_rogue_join_reply_step_replies_and_downlinks_are_dropped(tmp_path, clock):
+    """A rogue answers the join and every step first and publishes forged downlinks: the host uses none of it."""
+    marker = tmp_path / "pwned"
+    rogues = []
+
+    def on_open(world, link):
+        rogues.append(_Rogue(link.locators()[0], world.keys, marker))
+
+    clean = _run_world(_beacons_raw(clock), tmp_path / "clean")
+    try:
+        result = _run_world(_beacons_raw(clock), tmp_path / "run", on_open=on_open)
+    finally:
+        for r in rogues:
+            r.close()
+    assert not marker.exists() and (tmp_path / "run" / "result.json").is_file()
+    assert rogues[0].answered >= 1
+    assert len(result.robots) == 6 and all(r["alive"] for r in result.robots.values())
+    bad = result.robots[0].get("_bad_downlinks", 0)
+    assert bad >= 1  # counted by the host, reported with its robots
+    if clock == "lockstep":
+        assert [rec.get("del") for rec in result.trace] == [rec.get("del") for rec in clean.trace]

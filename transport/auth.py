@@ -1,4 +1,4 @@
-"""Authenticated uplinks.
+"""Authenticated uplinks and downlinks.
 
 Every robot host receives its own random key in the ``world/join`` reply and
 seals each uplink message with HMAC-SHA256 under it. Replicas that share one
@@ -8,17 +8,45 @@ counted as malformed by the world.
 
 Sealed form: msgpack ``[tag, body]`` where ``body`` is the packed message and
 ``tag = HMAC-SHA256(key, body)``.
+
+Downlinks (``down/{host}`` and the replies to a host's steps) are sealed by the world with the same per-host
+key, and the ``world/join`` reply with the run's secret when there is one: ``swarmactors run`` makes a random
+secret per run and gives it to the hosts it starts through the environment (``SWARMACTORS_RUN_SECRET``, hex);
+an operator may set the same variable for ``swarmactors world`` and its ``robots``. A host drops (and counts)
+a downlink or join reply that does not verify.
 """
 
 from __future__ import annotations
 
 import hashlib
 import hmac
+import os
 import secrets
 
 from transport.codec import MalformedMessage, pack, unpack
 
 KEY_BYTES = 32
+RUN_SECRET_ENV = "SWARMACTORS_RUN_SECRET"
+
+
+def run_secret_from_env() -> bytes | None:
+    """The run secret shared through the environment (hex), or None."""
+    value = os.environ.get(RUN_SECRET_ENV)
+    if not value:
+        return None
+    try:
+        return bytes.fromhex(value)
+    except ValueError:
+        raise ValueError(f"{RUN_SECRET_ENV} is not a hex string") from None
+
+
+def verifies(key: bytes, data: bytes) -> bool:
+    """True if ``data`` is a message sealed under ``key``."""
+    try:
+        unseal(key, data, what="message")
+    except MalformedMessage:
+        return False
+    return True
 
 
 def new_key() -> bytes:

@@ -131,8 +131,13 @@ class Link:
         payload: bytes = b"",
         *,
         timeout: float = 10.0,  # noqa: ASYNC109 — Zenoh's own query timeout (session.get), not a cancel scope
+        accept: Callable[[bytes], bool] | None = None,
     ) -> bytes:
-        """Send a query and return the first reply's payload (``QueryError`` if none)."""
+        """Send a query and return the first reply's payload that ``accept`` takes (``QueryError`` if none).
+
+        With ``accept`` (e.g. "sealed under my key") a rogue queryable answering first cannot stand in for the
+        world: its replies are skipped.
+        """
         loop = self.loop
         future: asyncio.Future = loop.create_future()
         replies: list[bytes] = []
@@ -145,7 +150,7 @@ class Link:
                 errors.append(reply.err.payload.to_bytes().decode(errors="replace"))
 
         def on_done() -> None:
-            loop.call_soon_threadsafe(_settle, future, replies, errors)
+            loop.call_soon_threadsafe(_settle, future, replies, errors, accept)
 
         self.session.get(
             key,
@@ -153,6 +158,7 @@ class Link:
             payload=payload,
             timeout=timeout,
             target=zenoh.QueryTarget.ALL,
+            consolidation=zenoh.ConsolidationMode.NONE,  # every reply reaches ``accept``, not just the latest
             congestion_control=zenoh.CongestionControl.BLOCK,
         )
         result = await future
@@ -233,9 +239,15 @@ class Link:
         self.close()
 
 
-def _settle(future: asyncio.Future, replies: list[bytes], errors: list[str]) -> None:
+def _settle(future: asyncio.Future, replies: list[bytes], errors: list[str],
+            accept: Callable[[bytes], bool] | None = None) -> None:
     if future.done():
         return
+    if accept is not None:
+        good = [r for r in replies if accept(r)]
+        if replies and not good:
+            errors = [*errors, f"{len(replies)} reply(ies), none authentic"]
+        replies = good
     if replies:
         future.set_result(replies[0])
     elif errors:

@@ -31,7 +31,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from transport import Keys, Link, MalformedMessage, PendingQuery, new_key, pack, unseal
+from transport import Keys, Link, MalformedMessage, PendingQuery, new_key, pack, seal, unseal
 from transport.messages import (
     CLOCK_COMMANDS,
     MAX_PER_REQUEST,
@@ -87,9 +87,11 @@ class World:
         keys: Keys,
         sinks: list[Sink] = (),
         on_tick: Callable[[World], None] | None = None,
+        run_secret: bytes | None = None,
     ):
         run = spec["run"]
         self.spec = spec
+        self.run_secret = run_secret  # seals join replies (transport.auth); None: join replies are plain
         self.link = link
         self.keys = keys
         self.sinks = list(sinks)
@@ -208,7 +210,7 @@ class World:
         """Steps 3-5: inputs to every host; in lockstep, wait for every step and take the outputs."""
         if not self.lockstep:
             for host in self._live_hosts():
-                self.link.publish(self.keys.down(host), encode(self._inputs_for(host, None)))
+                self.link.publish(self.keys.down(host), self._down(host, self._inputs_for(host, None)))
             return
         inbox = self._deliver_due(self.tick)
         self._awaited_tick = self.tick
@@ -218,7 +220,7 @@ class World:
             # inputs from the tick after its registration arrives (_all_in counts a registration as in)
             _, q, _ = self._held.pop(host, (None, None, None))
             if q is not None:
-                q.reply(encode(self._inputs_for(host, inbox)))
+                q.reply(self._down(host, self._inputs_for(host, inbox)))
         await self._await_steps()
         for host in sorted(self._live_hosts()):
             t, _, msg = self._held.get(host, (None, None, None))
@@ -339,8 +341,13 @@ class World:
         self.hosts[name] = host
         log.info("host %s joined with robots %s", name, ids)
         run = RunInfo(self.clock.name, self.dt, self.seed, self.ticks, self.watchdog_s, self.tick)
-        q.reply(encode(JoinReply(name, host.key, PROTOCOL_VERSION, [self._robot_descr(r) for r in ids], run)))
+        reply = encode(JoinReply(name, host.key, PROTOCOL_VERSION, [self._robot_descr(r) for r in ids], run))
+        q.reply(seal(self.run_secret, reply) if self.run_secret else reply)
         self._check_ready()
+
+    def _down(self, host: str, msg) -> bytes:
+        """A downlink message for ``host``, sealed with its key (transport.auth)."""
+        return seal(self.hosts[host].key, encode(msg))
 
     def _robot_descr(self, rid: int) -> RobotDescr:
         s = self.robots.spec[rid]
@@ -376,7 +383,7 @@ class World:
         host = self.keys.host_of(q.key)
         entry = self.hosts.get(host)
         if entry is not None and not entry.alive:
-            q.reply(encode(Stop(self.tick, gone=True)))
+            q.reply(self._down(host, Stop(self.tick, gone=True)))
             return
         msg = self._decode_up(host, q.payload)
         if msg is None:
@@ -384,7 +391,7 @@ class World:
             return
         if not self.lockstep:
             self._take(host, msg)
-            q.reply(encode(Ack(self.clock.epoch)))
+            q.reply(self._down(host, Ack(self.clock.epoch)))
             if msg.tick == -1:
                 self._held[host] = (-1, None, None)
                 self._check_ready()
@@ -542,7 +549,7 @@ class World:
         self._rt_flush_scheduled.discard(host)
         batch = self._rt_out.pop(host, [])
         if batch and self.hosts.get(host) and self.hosts[host].alive:
-            self.link.publish(self.keys.down(host), encode(Deliveries(batch)))
+            self.link.publish(self.keys.down(host), self._down(host, Deliveries(batch)))
 
     # ------------------------------------------------------------ actions and failures
     def _apply(self, action: dict, source: str) -> None:
@@ -687,17 +694,17 @@ class World:
 
     async def _collect_reports(self) -> None:
         """Tell every live host to stop and wait (bounded) for its robots' reports."""
-        stop = encode(Stop(self.tick))
+        stop = Stop(self.tick)
         self._check_reports_in()
         if self.lockstep:
             self._awaited_tick = self.tick
             for host in self._live_hosts():
                 held = self._held.pop(host, None)
                 if held is not None and held[1] is not None:
-                    held[1].reply(stop)
+                    held[1].reply(self._down(host, stop))
         else:
             for host in self._live_hosts():
-                self.link.publish(self.keys.down(host), stop)
+                self.link.publish(self.keys.down(host), self._down(host, stop))
         try:
             await asyncio.wait_for(self._final_reports.wait(), self.watchdog_s + 5.0)
         except TimeoutError:
@@ -706,7 +713,7 @@ class World:
             for host in list(self._held):
                 _, q, _ = self._held.pop(host)
                 if q is not None:
-                    q.reply(encode(Stop(self.tick, bye=True)))
+                    q.reply(self._down(host, Stop(self.tick, bye=True)))
 
     # ------------------------------------------------------------ summary
     def summary(self) -> dict:
