@@ -26,6 +26,7 @@ from swarmactors.plugins import BEHAVIORS, resolve
 from swarmactors.progress import RunProgress, summary_table
 from swarmactors.scenario import ScenarioError
 from transport import Endpoints, Keys, Security, ensure_files
+from transport.auth import RUN_SECRET_ENV
 
 INSECURE_WARNING = (
     "warning: running without --secure: anyone who can reach {where} can join this run, publish frames "
@@ -344,6 +345,10 @@ def _robots(args) -> int:
         _wait_for(args.secure / "host.credential", seconds=60)
     extra = Security("host", args.secure).zenoh_settings(args.run_id) if args.secure else {}
     endpoints = Endpoints(mode=args.mode, connect=args.connect, extra=extra)
+    if not args.secure and not os.environ.get(RUN_SECRET_ENV):
+        print(f"warning: no --secure and no {RUN_SECRET_ENV}: the join reply and so this host's downlink are not "
+              f"authenticated; anyone who reaches {', '.join(args.connect)} can feed it false inputs "
+              "(see docs/security.md)", file=sys.stderr)
     asyncio.run(serve_host(endpoints, args.run_id, args.count, args.allow))
     return EXIT_OK
 
