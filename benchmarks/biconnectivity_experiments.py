@@ -52,7 +52,7 @@ from protocols.biconnectivity.geometry import (  # noqa: E402
 )
 from protocols.biconnectivity.oracle import expected_counts, paper_biconnected, path_ends  # noqa: E402
 from swarmactors.launcher import new_run_id, run_world  # noqa: E402
-from swarmactors.scenario import resolve_scenario  # noqa: E402
+from swarmactors.scenario import draw_until_connected, resolve_scenario  # noqa: E402
 from transport import Endpoints  # noqa: E402
 
 S = 0.9  # neighbour spacing; radio range 1
@@ -104,11 +104,10 @@ def grid(rows: int, cols: int) -> np.ndarray:
 
 def rgg(n: int, seed: int, density: float = 2.0) -> np.ndarray:
     rng = np.random.default_rng(seed)
-    for _ in range(1000):
-        pts = rng.random((n, 2)) * math.sqrt(n / density)
-        if nx.is_connected(graph_of(pts)):
-            return pts
-    raise RuntimeError("no connected placement")
+    try:
+        return draw_until_connected(lambda: rng.random((n, 2)) * math.sqrt(n / density), 1.0, attempts=1000)
+    except ValueError:
+        raise RuntimeError("no connected placement") from None
 
 
 def graph_of(pts) -> nx.Graph:

@@ -78,7 +78,8 @@ def _sampled(records: list[dict]) -> list[int]:
 def connectivity(records: list[dict], ranges: dict[int, float], path: Path, name: str) -> Path:
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
+
+    from swarmactors.scenario import mutual_links
 
     ticks, largest, components, alive = [], [], [], []
     for i in _sampled(records):
@@ -93,10 +94,7 @@ def connectivity(records: list[dict], ranges: dict[int, float], path: Path, name
         ids = [r[0] for r in rows]
         xy = np.array([r[1:] for r in rows], dtype=float)
         rng = np.array([ranges.get(r, 1.0) for r in ids])
-        pairs = cKDTree(xy).query_pairs(float(rng.max()), output_type="ndarray")
-        if len(pairs):
-            d = np.linalg.norm(xy[pairs[:, 0]] - xy[pairs[:, 1]], axis=1)
-            pairs = pairs[d <= np.minimum(rng[pairs[:, 0]], rng[pairs[:, 1]])]
+        pairs = np.array(mutual_links(xy, rng), dtype=int).reshape(-1, 2)
         g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])) if len(pairs) else
                        (np.zeros(0), (np.zeros(0, int), np.zeros(0, int))), shape=(len(ids), len(ids)))
         k, labels = connected_components(g, directed=False)

@@ -106,18 +106,15 @@ def comb(n: int, spacing: float = 0.8) -> list[list[float]]:
 
 def random_geometric(n: int, seed: int, degree: float = 4.0, radius: float = 1.0) -> list[list[float]]:
     """A connected random geometric graph: n robots uniform in a square, ~``degree`` neighbours in ``radius``."""
-    from swarmactors.scenario import undirected_graph
+    from swarmactors.scenario import draw_until_connected
 
     side = math.sqrt(n * math.pi * radius**2 / degree)
     rng = np.random.default_rng([seed, n])
-    for _ in range(500):
-        pts = rng.random((n, 2)) * side
-        g = undirected_graph(pts, np.full(n, radius))
-        import networkx as nx
-
-        if nx.is_connected(g):
-            return np.round(pts, 6).tolist()
-    raise ValueError(f"no connected random geometric graph with n={n}")
+    try:
+        pts = draw_until_connected(lambda: rng.random((n, 2)) * side, radius, attempts=500)
+    except ValueError:
+        raise ValueError(f"no connected random geometric graph with n={n}") from None
+    return np.round(pts, 6).tolist()
 
 
 # ------------------------------------------------------------------ families

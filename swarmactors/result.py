@@ -167,10 +167,13 @@ class Result:
     def graph_at(self, tick: int, directed: bool = False) -> nx.Graph:
         """The true radio graph at ``tick``.
 
-        Alive robots, links in range (mutual unless ``directed``), minus cut links and links between
-        partition groups.
+        Alive robots, links in range (mutual unless ``directed``: an edge a -> b when b is within a's range),
+        minus cut links and links between partition groups. An oracle: computed here from the trace, on its
+        own (a k-d tree for candidate pairs, then the rule on exact distances), independently of the world's
+        radio; tests/unit/test_graph_at.py checks that the two agree.
         """
         import networkx as nx
+        from scipy.spatial import cKDTree
 
         rec = self.record(tick)
         cuts, group = self.severed_at(tick)
@@ -179,17 +182,21 @@ class Result:
         pos = np.array([row[1:] for row in rec.get("pos", [])], dtype=float)
         g = nx.DiGraph() if directed else nx.Graph()
         g.add_nodes_from(ids)
-        for a in range(len(ids)):
-            d = np.linalg.norm(pos - pos[a], axis=1)
-            for b in np.flatnonzero(d <= ranges[ids[a]]):
-                if b == a:
-                    continue
-                if cuts and frozenset((ids[a], ids[b])) in cuts or group.get(ids[a], 0) != group.get(ids[b], 0):
-                    continue
-                if directed:
-                    g.add_edge(ids[a], ids[b])
-                elif d[b] <= ranges[ids[b]]:
-                    g.add_edge(ids[a], ids[b])
+        if len(ids) < 2:
+            return g
+        r = np.array([ranges[i] for i in ids], dtype=float)
+        # candidates with a margin, so that the tree's own rounding at the range's edge loses no pair
+        pairs = cKDTree(pos).query_pairs(float(r.max()) * (1 + 1e-9) + 1e-12, output_type="ndarray")
+        edges = []
+        for a, b in sorted(map(tuple, pairs.tolist())):
+            if cuts and frozenset((ids[a], ids[b])) in cuts or group.get(ids[a], 0) != group.get(ids[b], 0):
+                continue
+            d = np.linalg.norm(pos[b] - pos[a])
+            if directed:
+                edges += [(a, b)] * bool(d <= r[a]) + [(b, a)] * bool(d <= r[b])
+            elif d <= r[a] and d <= r[b]:
+                edges.append((a, b))
+        g.add_edges_from((ids[a], ids[b]) for a, b in sorted(edges))
         return g
 
     def poses(self):

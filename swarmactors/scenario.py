@@ -13,6 +13,7 @@ import copy
 import inspect
 import math
 import tomllib
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -316,35 +317,82 @@ def _connect_groups(sc: dict, source: str, rng: np.random.Generator) -> None:
     groups = sc["robots"]
     if not any(g["connected"] for g in groups):
         return
-    import networkx as nx
+    ranges = np.concatenate([[g["range"]] * g["count"] for g in groups])
+    draws = iter(range(2000))
 
-    for _attempt in range(2000):
-        pos = np.vstack([np.array(g["positions"]) for g in groups])
-        ranges = np.concatenate([[g["range"]] * g["count"] for g in groups])
-        if undirected_graph(pos, ranges).number_of_nodes() and nx.is_connected(undirected_graph(pos, ranges)):
-            return
-        for i, g in enumerate(groups):
-            if g["connected"] and g["placement"] != "explicit":
-                g["positions"] = _place(g, sc, source, f"robots[{i}]", rng).tolist()
-    raise ScenarioError(
-        source, "robots.connected", "no connected placement found in 2000 draws; enlarge range or shrink area"
-    )
+    def draw() -> np.ndarray:
+        if next(draws):  # the first draw is the placement already made
+            for i, g in enumerate(groups):
+                if g["connected"] and g["placement"] != "explicit":
+                    g["positions"] = _place(g, sc, source, f"robots[{i}]", rng).tolist()
+        return np.vstack([np.array(g["positions"]) for g in groups])
+
+    try:
+        draw_until_connected(draw, ranges, attempts=2000)
+    except ValueError:
+        raise ScenarioError(
+            source, "robots.connected", "no connected placement found in 2000 draws; enlarge range or shrink area"
+        ) from None
+
+
+def mutual_links(pos: np.ndarray, ranges: np.ndarray) -> list[tuple[int, int]]:
+    """Pairs (a, b), a < b, each within the other's range, sorted: the world's own rule (``world.sensing.within``).
+
+    The one "who is in range" of the product, shared by the radio, the charts and connected placements.
+    """
+    from world.sensing import within
+
+    pos = np.asarray(pos, dtype=float)
+    if len(pos) < 2:
+        return []
+    reach = within(pos, np.arange(len(pos)), np.asarray(ranges, dtype=float))
+    heard = {a: set(bs.tolist()) for a, bs in reach.items()}
+    return [(a, b) for a in range(len(pos)) for b in reach[a].tolist() if b > a and a in heard[b]]
+
+
+def connected(pos: np.ndarray, ranges: np.ndarray) -> bool:
+    """Whether the mutual links (``mutual_links``) connect every robot (no robot: False)."""
+    n = len(pos)
+    if n == 0:
+        return False
+    parent = list(range(n))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    parts = n
+    for a, b in mutual_links(pos, ranges):
+        ra, rb = root(a), root(b)
+        if ra != rb:
+            parent[ra] = rb
+            parts -= 1
+    return parts == 1
+
+
+def draw_until_connected(draw: Callable[[], np.ndarray], ranges: Any, attempts: int) -> np.ndarray:
+    """Call ``draw()`` until the positions it returns are connected (``connected``); ValueError after ``attempts``.
+
+    ``ranges``: one radio range for all, or one per robot.
+    """
+    for _ in range(attempts):
+        pts = np.asarray(draw(), dtype=float)
+        radii = np.broadcast_to(np.asarray(ranges, dtype=float), (len(pts),))
+        if connected(pts, radii):
+            return pts
+    raise ValueError(f"no connected placement in {attempts} draws")
 
 
 def undirected_graph(pos: np.ndarray, ranges: np.ndarray, ids: list[int] | None = None) -> nx.Graph:
     """Robots as nodes, an edge where each is within the other's range (the mutual links)."""
     import networkx as nx
-    from scipy.spatial import cKDTree
 
     ids = list(range(len(pos))) if ids is None else ids
     g = nx.Graph()
     g.add_nodes_from(ids)
-    if len(pos) > 1:
-        tree = cKDTree(pos)
-        for a, b in tree.query_pairs(float(np.max(ranges))):
-            d = float(np.linalg.norm(pos[a] - pos[b]))
-            if d <= ranges[a] and d <= ranges[b]:
-                g.add_edge(ids[a], ids[b])
+    g.add_edges_from((ids[a], ids[b]) for a, b in mutual_links(pos, ranges))
     return g
 
 

@@ -10,25 +10,12 @@ import math
 
 import numpy as np
 
+from swarmactors.scenario import draw_until_connected
+
 # Values the paper gives (Sec. III-C, IV-B) and the ones we chose where it gives none (docs/protocols/roles.md).
 SPEED = 0.03  # length units per timestep (paper)
 TURN = 0.15  # rad per timestep (paper)
 D_C = 1.5  # radio range d_c = sensing range d_s (ours)
-
-
-def _connected(pts: np.ndarray, r: float) -> bool:
-    n = len(pts)
-    d2 = ((pts[:, None, :] - pts[None, :, :]) ** 2).sum(-1)
-    adj = d2 <= r * r
-    seen = {0}
-    stack = [0]
-    while stack:
-        i = stack.pop()
-        for j in np.flatnonzero(adj[i]):
-            if int(j) not in seen:
-                seen.add(int(j))
-                stack.append(int(j))
-    return len(seen) == n
 
 
 def patrol_placement(n: int, seed: int, d_c: float = D_C, digits: int = 4) -> tuple[list[list[float]], int]:
@@ -41,15 +28,19 @@ def patrol_placement(n: int, seed: int, d_c: float = D_C, digits: int = 4) -> tu
     """
     rng = np.random.default_rng([seed, n, 4])
     d_init = 0.6 * math.sqrt(n)
-    for _ in range(10_000):
+
+    def draw() -> np.ndarray:
         r = d_init * np.sqrt(rng.random(n - 1))
         a = rng.random(n - 1) * math.pi / 2
         pts = np.round(np.stack([r * np.cos(a), r * np.sin(a)], axis=1), digits)
-        allp = np.vstack([[0.0, 0.0], pts])
-        if _connected(allp, d_c):
-            d = np.hypot(pts[:, 0], pts[:, 1])
-            return allp.tolist(), int(np.argmin(d)) + 1
-    raise RuntimeError(f"no connected placement for n={n}")
+        return np.vstack([[0.0, 0.0], pts])
+
+    try:
+        allp = draw_until_connected(draw, d_c, attempts=10_000)
+    except ValueError:
+        raise RuntimeError(f"no connected placement for n={n}") from None
+    d = np.hypot(allp[1:, 0], allp[1:, 1])
+    return allp.tolist(), int(np.argmin(d)) + 1
 
 
 def patrol_targets(n: int, seed: int, count: int = 60, digits: int = 4) -> list[list[float]]:
