@@ -64,6 +64,6 @@ def test_on_batch_default_is_not_called():
     sys.modules["batch_mod"] = mod
     run = RunInfo("lockstep", 1.0, 0, 10, 10.0, 0)
     robot = Robot(RobotDescr(0, [0.0, 0.0, 0.0], [{"use": "batch_mod:WithBatch"}, {"use": "batch_mod:Plain"}],
-                             "ground", 1.0, 1.0, 1.0), run)
+                             "ground", 1.0, 1.0, 1.0), run, allow={"batch_mod"})
     assert robot.error is None, robot.error
     assert len(robot._batch_hooks) == 1

@@ -70,7 +70,7 @@ RADIO = {
     "range": (NUMBER, 1.0), "latency": (INTEGER, 1), "latency_s": (NUMBER, 0.01), "latency_min_s": (NUMBER, None),
     "loss": (NUMBER, 0.0), "model": (STRING, "bernoulli"), "delta": (NUMBER, 0.1), "bandwidth": (INTEGER, 0),
 }
-WORLD = {"dims": (INTEGER, 2), "bounds": ("list", None), "objects": ("list", [])}
+WORLD = {"dims": (INTEGER, 2), "bounds": ("list", None), "objects": ("list", []), "max_robots": (INTEGER, 10_000)}
 GROUP = {
     "count": (INTEGER, None), "positions": ("list", None), "placement": (STRING, "uniform"), "area": ("list", None),
     "connected": (BOOLEAN, False), "spacing": (NUMBER, None), "range": (NUMBER, None), "sensing": (NUMBER, None),
