@@ -46,4 +46,11 @@ def run(scenario, **kwargs) -> Result:
     return _run(scenario, **kwargs)
 
 
-__all__ = ["Behavior", "Context", "Frame", "Outcome", "Result", "Scenario", "Sensed", "run"]
+async def arun(scenario, **kwargs) -> Result:
+    """Run a scenario from inside a running event loop (a notebook); see ``swarmactors.notebook.arun``."""
+    from swarmactors.notebook import arun as _arun
+
+    return await _arun(scenario, **kwargs)
+
+
+__all__ = ["Behavior", "Context", "Frame", "Outcome", "Result", "Scenario", "Sensed", "arun", "run"]
