@@ -76,7 +76,7 @@ class RoleSwitching(Behavior, _Timed):
 
     name = "roles"
     kinds = KINDS
-    plot_field = "rc"  # role code: 0 base station, 1 repeater, 2 local leader, 3 explorer
+    plot_field = "role"  # categorical: base station, repeater, local leader, explorer (rc holds a numeric code)
 
     def __init__(self, leader: int, base: int = 0, targets: list | dict | None = None, eta_a: float = 0.8,
                  eta_b: float = 0.15, eta_c: int = 3, aat: str = PROPOSED, k1: float = 0.05, k2: float = 0.1,
