@@ -13,6 +13,7 @@ import json
 import logging
 import os
 import sys
+from contextlib import nullcontext
 from pathlib import Path
 
 from rich.console import Console
@@ -21,7 +22,7 @@ from swarmactors import export as export_cli
 from swarmactors import newproject, schedule_cli
 from swarmactors import scenario as scenario_mod
 from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME
-from swarmactors.launcher import new_run_id, run_world, serve_host
+from swarmactors.launcher import new_run_id, private_endpoints, run_world, serve_host
 from swarmactors.plugins import BEHAVIORS, resolve
 from swarmactors.progress import RunProgress, summary_table
 from swarmactors.scenario import ScenarioError
@@ -63,6 +64,9 @@ def build_parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run a scenario: world and robots, progress, result.json, trace, plot")
     scenario_args(run)
     run.add_argument("--processes", type=int, help="robot host processes K (0 = robots in the world's process)")
+    run.add_argument("--tcp", action="store_true",
+                     help="listen on a loopback TCP port (reachable by every local user) instead of a private "
+                          "Unix socket")
     _view_args(run)
 
     world = sub.add_parser("world", help="run only the world; robot hosts join with `swarmactors robots`")
@@ -209,8 +213,13 @@ def _run(args, sc: dict, err: Console) -> int:
         Keys(run_id)
         endpoints = _world_endpoints(args, run_id)
     else:
-        endpoints = Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"])
+        endpoints = None  # a private Unix socket unless --tcp (launcher.private_endpoints)
         run_id, local = new_run_id(sc["run"]["name"]), True
+    with nullcontext(endpoints) if endpoints is not None else private_endpoints(args.tcp) as where:
+        return _run_on(args, sc, err, out_dir, where, run_id, local)
+
+
+def _run_on(args, sc: dict, err: Console, out_dir: Path, endpoints: Endpoints, run_id: str, local: bool) -> int:
     progress = RunProgress(sc["run"]["ticks"], sc["run"]["name"], quiet=args.quiet)
     session = None
     if args.view:

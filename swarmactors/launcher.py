@@ -4,7 +4,7 @@
 K = 0 host processes (the default) runs the robots inside the world's process
 over the same Zenoh session; K >= 1 spawns K host processes (``spawn`` start
 method, fixed ``PYTHONHASHSEED``; Zenoh's runtime does not survive ``fork``)
-that connect to the world's ephemeral loopback endpoint.
+that connect to the world's private Unix socket (``run(tcp=True)``: a loopback TCP port; docs/security.md).
 """
 
 from __future__ import annotations
@@ -16,7 +16,9 @@ import logging
 import multiprocessing
 import os
 import re
+import shutil
 import signal
+import tempfile
 import uuid
 from collections.abc import Callable, Collection
 from contextlib import contextmanager
@@ -34,6 +36,23 @@ from world import POS_DIGITS, World
 
 log = logging.getLogger(__name__)
 HASH_SEED = "0"
+
+
+@contextmanager
+def private_endpoints(tcp: bool = False):
+    """Where a local run listens: a Unix socket in a new directory only this user can open (mode 0700).
+
+    ``tcp`` asks for an ephemeral loopback TCP port instead, which every local user can reach
+    (docs/security.md). The directory is removed when the run ends.
+    """
+    if tcp:
+        yield Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"])
+        return
+    folder = tempfile.mkdtemp(prefix="swarmactors-")  # created 0700
+    try:
+        yield Endpoints(mode="peer", listen=[f"unixsock-stream/{folder}/world.sock"])
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def new_run_id(name: str) -> str:
@@ -280,12 +299,13 @@ def metrics(sc: dict, reports: dict[int, dict]) -> dict:
 
 
 def run(scenario, *, out: str | Path | None = None, processes: int | None = None,
-        overrides: list[str] = (), **settings) -> Result:
+        overrides: list[str] = (), tcp: bool = False, **settings) -> Result:
     """Run a scenario (a TOML path or a dict as parsed from TOML) and return its Result.
 
     ``settings`` are overrides written ``section__key=value`` (``radio__loss=0.1``,
     ``run__seed=3``); ``overrides`` takes ``"section.key=value"`` strings as on
-    the command line. Output goes to ``out`` (default ``out/<run.name>``).
+    the command line. Output goes to ``out`` (default ``out/<run.name>``). The world listens on a private Unix
+    socket (``tcp=True``: a loopback TCP port).
     """
     import copy
 
@@ -304,8 +324,8 @@ def run(scenario, *, out: str | Path | None = None, processes: int | None = None
     sc = resolve_scenario(raw, source, list(overrides))
     k = sc["run"]["processes"]
     out_dir = Path(out) if out is not None else Path("out") / sc["run"]["name"]
-    endpoints = Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"])
-    return asyncio.run(run_world(sc, out_dir, endpoints, new_run_id(sc["run"]["name"]), processes=k))
+    with private_endpoints(tcp) as endpoints:
+        return asyncio.run(run_world(sc, out_dir, endpoints, new_run_id(sc["run"]["name"]), processes=k))
 
 
 def write_result(data: dict, out_dir: Path) -> Result:

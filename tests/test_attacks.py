@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import asyncio
 import math
+import stat
 import sys
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,7 +22,8 @@ import zenoh
 
 from swarmactors.behavior import Behavior
 from swarmactors.host import Robot
-from swarmactors.launcher import new_run_id, run_world
+from swarmactors.launcher import new_run_id, private_endpoints, run_world
+from swarmactors.launcher import run as launcher_run
 from swarmactors.plugins import BEHAVIORS, RefusedBehavior, allowed, available, resolve_behavior
 from swarmactors.scenario import resolve_scenario, world_spec
 from test_bad_input import FLOOD_RAW, PAUSE_AT, FakeLink, FakeQuery, WireRun, _get, _HostThread
@@ -421,3 +424,26 @@ def test_attack_rogue_join_reply_step_replies_and_downlinks_are_dropped(tmp_path
     assert bad >= 1  # counted by the host, reported with its robots
     if clock == "lockstep":
         assert [rec.get("del") for rec in result.trace] == [rec.get("del") for rec in clean.trace]
+
+
+# ------------------------------------------------------------------ 8. run on a private Unix socket
+def test_run_listens_on_a_unix_socket_in_a_private_directory():
+    with private_endpoints() as endpoints:
+        (where,) = endpoints.listen
+        assert where.startswith("unixsock-stream/")
+        folder = Path(where.removeprefix("unixsock-stream/")).parent
+        assert folder.is_dir() and stat.S_IMODE(folder.stat().st_mode) == 0o700
+    assert not folder.exists()
+    with private_endpoints(tcp=True) as endpoints:
+        assert endpoints.listen == ["tcp/127.0.0.1:0"]
+
+
+@pytest.mark.slow
+def test_run_with_host_processes_over_the_unix_socket(tmp_path):
+    """``run --processes 2`` (the default transport): the spawned hosts reach the world through the socket."""
+    raw = _beacons_raw()
+    result = launcher_run(raw, out=tmp_path / "unix", processes=2)
+    tcp = launcher_run(raw, out=tmp_path / "tcp", processes=2, tcp=True)
+    assert {r["host"] for r in result.robots.values()} == {"h0", "h1"}
+    assert result["trace_hash"] == tcp["trace_hash"]
+    assert all(r["beacon"]["heard"] > 0 for r in result.robots.values())
