@@ -18,7 +18,7 @@ Measures on this machine (docs/benchmarks.md explains each number):
 5. where the time goes: cProfile of one N = 1000 lockstep run (K = 0), the
    world and host processes of one N = 1000 K = 2 run, and the garbage
    collector's share of the world process's tick loop (every run is measured
-   with the collector as the product sets it: ``launcher.quiet_gc``).
+   with the collector as the product sets it: ``hosting.quiet_gc``).
 
 Every case runs ``--repeats`` times (3; 1 with ``--quick``), round-robin
 over the cases so that a burst of other load spreads over all of them. The
@@ -160,7 +160,7 @@ class GcMeter:
 
     Every collection is kept as (start, seconds, generation), so that the
     share of one window (the tick loop) can be told apart from the explicit
-    ``gc.collect()`` that ``launcher.quiet_gc`` makes before the run starts.
+    ``gc.collect()`` that ``hosting.quiet_gc`` makes before the run starts.
     """
 
     def __init__(self) -> None:
