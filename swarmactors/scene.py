@@ -24,7 +24,7 @@ from typing import Any
 
 from swarmactors.result import to_jsonable
 from transport import unpack
-from transport.messages import DROP_CAUSES
+from transport.messages import DROP_CAUSES, malformed_count
 
 ACTIVITY_TICKS = 3  # a robot "is talking" when it sent frames in the last ACTIVITY_TICKS ticks
 RECENT_TICKS = 50  # per-robot frame history kept for the detail panel
@@ -103,7 +103,7 @@ class Scene:
             for d in drops:
                 self.dropped[d[3]] = self.dropped.get(d[3], 0) + 1
         if rec.get("mal"):
-            self.dropped["malformed"] += len(rec["mal"])
+            self.dropped["malformed"] += malformed_count(rec["mal"])
         if sent or delivered or drops:
             self.recent.append(rec)
 

@@ -26,6 +26,15 @@ PROTOCOL_VERSION = 2
 # Why the world did not deliver a frame to a robot (or refused a message): the counters, result.json,
 # the trace, the sweep CSV and the viewer all use these names.
 DROP_CAUSES = ("range", "loss", "cut", "bandwidth", "dead", "malformed")
+# The last ``mal`` entry of a trace record whose tick had more malformed messages than were stored, then a count.
+MORE_MALFORMED = "and more malformed messages, not stored:"
+
+
+def malformed_count(mal: list[str]) -> int:
+    """How many malformed messages a trace record's ``mal`` list stands for (stored samples plus the rest)."""
+    if mal and isinstance(mal[-1], str) and mal[-1].startswith(MORE_MALFORMED):
+        return len(mal) - 1 + int(mal[-1][len(MORE_MALFORMED):])
+    return len(mal)
 
 RobotId = Annotated[int, msgspec.Meta(ge=0, le=INT64 - 1)]
 Seq = Annotated[int, msgspec.Meta(ge=0, le=INT64 - 1)]

@@ -13,13 +13,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from transport.messages import DROP_CAUSES
+from transport.messages import DROP_CAUSES, MORE_MALFORMED
 
 log = logging.getLogger("world")
 
 MALFORMED_EXAMPLES = 100  # reasons kept for result.json (every one is counted)
 SAMPLES_PER_TICK = 20  # reasons kept in a tick's trace record and logged, per cause (every one is counted)
-MORE_MALFORMED = "and more malformed messages, not stored:"  # the last ``mal`` entry of a flooded tick, with a count
 
 
 @dataclass

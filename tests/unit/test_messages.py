@@ -125,3 +125,11 @@ def test_every_action_has_a_shape_and_valid_examples_pass():
 def test_bad_actions_are_refused_with_a_reason(action, words):
     problem = action_problem(action, robots=3, dims=2, objects={"target"})
     assert problem is not None and words in problem, problem
+
+
+def test_malformed_count_reads_the_overflow_entry():
+    from transport.messages import MORE_MALFORMED, malformed_count
+
+    assert malformed_count([]) == 0
+    assert malformed_count(["a", "b"]) == 2
+    assert malformed_count(["a", "b", f"{MORE_MALFORMED} 298"]) == 300
