@@ -22,7 +22,8 @@ from swarmactors import export as export_cli
 from swarmactors import newproject, schedule_cli
 from swarmactors import scenario as scenario_mod
 from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME
-from swarmactors.launcher import new_run_id, private_endpoints, run_world, serve_host
+from swarmactors.hosting import serve_host
+from swarmactors.launcher import new_run_id, private_endpoints, run_world
 from swarmactors.plugins import BEHAVIORS, resolve
 from swarmactors.progress import RunProgress, summary_table
 from swarmactors.scenario import ScenarioError
