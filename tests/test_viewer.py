@@ -228,7 +228,9 @@ def test_remote_viewer_follows_and_controls_a_world_and_names_missing_runs(tmp_p
     out = tmp_path / "out"
     world = _start(["world", str(scenario), "--listen", endpoint, "--run-id", "far1", "--out", str(out), "--quiet",
                     "--no-plots"], tmp_path / "world.log")
-    host = _start(["robots", "--connect", endpoint, "--run-id", "far1"], tmp_path / "host.log")
+    # the host builds the scenario's test behaviours only because its operator allows their modules (docs/security.md)
+    host = _start(["robots", "--connect", endpoint, "--run-id", "far1", "--allow", "tests_support",
+                   "--allow", "viewer_support"], tmp_path / "host.log")
     view = None
     try:
         view = _start(["view", "--connect", endpoint, "--run", "far1", "--port", "0"], tmp_path / "view.log")
