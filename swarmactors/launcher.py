@@ -259,14 +259,11 @@ def metrics(sc: dict, reports: dict[int, dict]) -> dict:
     return out
 
 
-def run(scenario, *, out: str | Path | None = None, processes: int | None = None,
-        overrides: list[str] = (), tcp: bool = False, **settings) -> Result:
-    """Run a scenario (a TOML path or a dict as parsed from TOML) and return its Result.
+def resolve_run(scenario, processes: int | None = None, overrides: list[str] = (),
+                settings: dict | None = None) -> dict:
+    """The resolved scenario of a run: a TOML path, a dict as parsed from TOML or a ``swarmactors.Scenario``.
 
-    ``settings`` are overrides written ``section__key=value`` (``radio__loss=0.1``,
-    ``run__seed=3``); ``overrides`` takes ``"section.key=value"`` strings as on
-    the command line. Output goes to ``out`` (default ``out/<run.name>``). The world listens on a private Unix
-    socket (``tcp=True``: a loopback TCP port).
+    ``settings`` are overrides written ``section__key=value``; ``overrides`` are ``"section.key=value"`` strings.
     """
     import copy
 
@@ -278,15 +275,32 @@ def run(scenario, *, out: str | Path | None = None, processes: int | None = None
         raw, source = copy.deepcopy(scenario), "<dict>"
     else:
         raw, source = read_raw(scenario), str(scenario)
-    for key, value in settings.items():
+    for key, value in (settings or {}).items():
         set_value(raw, key.replace("__", "."), value, source)
     if processes is not None:
         set_value(raw, "run.processes", processes, source)
-    sc = resolve_scenario(raw, source, list(overrides))
-    k = sc["run"]["processes"]
+    return resolve_scenario(raw, source, list(overrides))
+
+
+async def arun(scenario, *, out: str | Path | None = None, processes: int | None = None,
+               overrides: list[str] = (), tcp: bool = False, **settings) -> Result:
+    """``run`` as a coroutine, for code that already runs an asyncio loop (a notebook)."""
+    sc = resolve_run(scenario, processes, overrides, settings)
     out_dir = Path(out) if out is not None else Path("out") / sc["run"]["name"]
     with private_endpoints(tcp) as endpoints:
-        return asyncio.run(run_world(sc, out_dir, endpoints, new_run_id(sc["run"]["name"]), processes=k))
+        return await run_world(sc, out_dir, endpoints, new_run_id(sc["run"]["name"]), processes=sc["run"]["processes"])
+
+
+def run(scenario, *, out: str | Path | None = None, processes: int | None = None,
+        overrides: list[str] = (), tcp: bool = False, **settings) -> Result:
+    """Run a scenario (a TOML path or a dict as parsed from TOML) and return its Result.
+
+    ``settings`` are overrides written ``section__key=value`` (``radio__loss=0.1``,
+    ``run__seed=3``); ``overrides`` takes ``"section.key=value"`` strings as on
+    the command line. Output goes to ``out`` (default ``out/<run.name>``). The world listens on a private Unix
+    socket (``tcp=True``: a loopback TCP port).
+    """
+    return asyncio.run(arun(scenario, out=out, processes=processes, overrides=overrides, tcp=tcp, **settings))
 
 
 def write_result(data: dict, out_dir: Path) -> Result:

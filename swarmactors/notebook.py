@@ -16,27 +16,10 @@ notebook for ``processes`` ≥ 1.
 from __future__ import annotations
 
 import asyncio
-import copy
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from swarmactors.result import Result
-
-
-def _resolve(scenario, processes: int | None, overrides, settings) -> dict:
-    from swarmactors.scenario import read_raw, resolve_scenario, set_value
-
-    if hasattr(scenario, "raw"):  # a swarmactors.Scenario
-        raw, source = copy.deepcopy(scenario.raw), f"<Scenario {scenario.raw['run'].get('name')}>"
-    elif isinstance(scenario, dict):
-        raw, source = copy.deepcopy(scenario), "<dict>"
-    else:
-        raw, source = read_raw(scenario), str(scenario)
-    for key, value in settings.items():
-        set_value(raw, key.replace("__", "."), value, source)
-    if processes is not None:
-        set_value(raw, "run.processes", processes, source)
-    return resolve_scenario(raw, source, list(overrides))
 
 
 async def arun(scenario, *, out: str | Path | None = None, processes: int | None = None,
@@ -53,13 +36,9 @@ async def arun(scenario, *, out: str | Path | None = None, processes: int | None
     Returns:
         The run's Result.
     """
-    from swarmactors.launcher import new_run_id, run_world
-    from transport import Endpoints
+    from swarmactors.launcher import arun as _arun
 
-    sc = _resolve(scenario, processes, overrides, settings)
-    out_dir = Path(out) if out is not None else Path("out") / sc["run"]["name"]
-    endpoints = Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"])
-    return await run_world(sc, out_dir, endpoints, new_run_id(sc["run"]["name"]), processes=sc["run"]["processes"])
+    return await _arun(scenario, out=out, processes=processes, overrides=overrides, **settings)
 
 
 def run_anywhere(scenario, **kwargs) -> Result:
