@@ -144,6 +144,7 @@ class World:
         self._reach: dict[int, np.ndarray] = {}
         self._sensed: dict[int, tuple] = {}
         self._poses: list[list[float]] = []
+        self._known: dict[int, list[str]] | None = None  # objects each robot knows this tick (None: all)
 
     @property
     def tick(self) -> int:
@@ -205,6 +206,7 @@ class World:
         self._sensed = sense(self.robots.pos, sensed_ids, self.robots.noise, self.seed, self.tick, POS_DIGITS)
         r = self.robots
         self._poses = np.round(np.hstack([r.pos, r.heading[:, None]]), POS_DIGITS).tolist()
+        self._known = self._known_objects()
 
     async def exchange(self) -> None:
         """Steps 3-5: inputs to every host; in lockstep, wait for every step and take the outputs."""
@@ -259,7 +261,7 @@ class World:
         table: list[FrameIn] = []
         index: dict[int, int] = {}
         poses = self._poses
-        known = self._known_objects()
+        known = self._known
         for rid in sorted(entry.robots):
             if not self.robots.alive[rid]:
                 continue
