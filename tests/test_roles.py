@@ -237,7 +237,7 @@ def test_bad_role_requests_are_refused_and_counted(run):
 @pytest.mark.parametrize("params,fragment", [
     ({"leader": 0}, "base station cannot be"),
     ({"leader": 1, "eta_a": 1.2}, "eta_a"),
-    ({"leader": 1, "eta_a": 0.3, "eta_b": 0.4}, "eta_b must be smaller"),
+    ({"leader": 1, "eta_a": 0.3, "eta_b": 0.4}, "eta_b = 0.4 must be smaller"),
     ({"leader": 1, "aat": "sometimes"}, "aat"),
     ({"leader": 1, "targets": [[1, 2], [3]]}, "targets"),
     ({"leader": 1, "lease": 0}, "lease"),

@@ -44,7 +44,9 @@ it heads to the origin, runs the acute angle test on everything it senses, asks 
 the base station in range for the position of its child (RS_WHERE), heads there, asks the next repeater,
 and is back when a fresh u_LL reaches it through a link.
 
-Files: ``behavior.py`` (the robot side: RoleSwitching, AATWalk), ``aat.py`` (the acute angle test),
-``oracle.py`` (checks), ``scenarios.py`` (placements and scenarios) and ``suite.py`` (the conformance family).
+Files: ``behavior.py`` (the robot side: RoleSwitching, AATWalk), ``params.py`` (RoleSwitching's parameters,
+validated in one place), ``rules.py`` (the motion laws and Algorithm 1's request as pure functions), ``aat.py``
+(the acute angle test), ``oracle.py`` (checks), ``scenarios.py`` (placements and scenarios) and ``suite.py``
+(the conformance family).
 Nothing is imported here, so loading the behaviour loads no oracle.
 """

@@ -19,6 +19,19 @@ from typing import Any
 import numpy as np
 
 from protocols.roles.aat import MODES, PROPOSED, Connections
+from protocols.roles.params import RoleParams
+from protocols.roles.rules import (
+    EXTEND,
+    RETRACT,
+    Candidate,
+    cap,
+    explorer_input,
+    head_to,
+    hold,
+    leader_input,
+    repeater_input,
+    role_change_request,
+)
 from swarmactors import Behavior, Context, Frame
 from swarmactors.behavior import is_int, is_num
 
@@ -41,17 +54,11 @@ HELP = "RS_HELP"  # a disconnected explorer asks a repeater / the base station f
 WHERE = "RS_WHERE"  # the answer: the child's id, role and position
 KINDS = (STATE, LL_INFO, CONNECT, DISCONNECT, REQUEST, ACK, NACK, TARGET, ARRIVED, HELP, WHERE)
 
-EXTEND, RETRACT = "extend", "retract"
 
 
 def _vec(v: Any) -> bool:
     return (type(v) in (list, tuple) and len(v) == 2 and type(v[0]) in (int, float) and type(v[1]) in (int, float)
             and math.isfinite(v[0]) and math.isfinite(v[1]))
-
-
-def cap(u: np.ndarray, vmax: float) -> np.ndarray:
-    n = math.hypot(u[0], u[1])
-    return u * (vmax / n) if n > vmax else u
 
 
 def _r(v: np.ndarray, digits: int = 6) -> list[float]:
@@ -78,23 +85,11 @@ class RoleSwitching(Behavior, _Timed):
     kinds = KINDS
     plot_field = "role"  # categorical: base station, repeater, local leader, explorer (rc holds a numeric code)
 
-    def __init__(self, leader: int, base: int = 0, targets: list | dict | None = None, eta_a: float = 0.8,
-                 eta_b: float = 0.15, eta_c: int = 3, aat: str = PROPOSED, k1: float = 0.05, k2: float = 0.1,
-                 k3: float = 0.02, k4: float = 0.1, k5: float = 0.5, k6: float = 0.05, k7: float = 0.5,
-                 k8: float = 0.02, d_n: float = 0.6, vmax: float = 0.03, expiry: int = 15, lost_after: int = 8,
-                 help_every: int = 5, target_every: int = 10, arrive: float = 0.1, switch_delay: int = 3,
-                 lease: int = 6, hold: float = 0.9, margin: float = 0.05):
-        self.leader, self.base = leader, base
-        self.targets_param = targets
-        self.eta_a, self.eta_b, self.eta_c = eta_a, eta_b, eta_c
-        self.k = (None, k1, k2, k3, k4, k5, k6, k7, k8)
-        self.d_n, self.vmax = d_n, vmax
-        self.expiry, self.lost_after, self.help_every, self.target_every = expiry, lost_after, help_every, target_every
-        self.arrive, self.switch_delay, self.lease, self.hold = arrive, switch_delay, lease, hold
-        self.margin = margin
+    def __init__(self, **params):
+        self.p = RoleParams.of(params)  # the scenario's keys, validated in one place (params.py)
         # the paper's d_c and d_s are the robot's radio and sensing ranges: read from the context in on_start
         self.d_c = self.d_s = math.nan
-        self.conn = Connections(aat, eta_c, math.nan)
+        self.conn = Connections(self.p.aat, self.p.eta_c, math.nan)
         self.role = EX
         self.role_changed = True  # Algorithm 2 line 4: the first tick counts as a change
         self.parent: int | None = None
@@ -155,35 +150,8 @@ class RoleSwitching(Behavior, _Timed):
     # ---------------------------------------------------------- parameters
     @staticmethod
     def validate(params: dict) -> str | None:
-        for key in ("leader", "base"):
-            if key in params and (not is_int(params[key]) or params[key] < 0):
-                return f"{key} = {params[key]!r} must be a robot id (non-negative integer)"
-        if params.get("leader") == params.get("base", 0):
-            return "the base station cannot be the initial local leader"
-        for key in ("eta_a", "eta_b", "vmax", "d_n", "arrive", "hold"):
-            if key in params and (not is_num(params[key]) or params[key] <= 0):
-                return f"{key} = {params[key]!r} must be a positive number"
-        for key in ("eta_a", "eta_b", "hold"):
-            if key in params and params[key] >= 1:
-                return f"{key} = {params[key]!r} must be below 1 (a fraction of d_c)"
-        if params.get("eta_b", 0.15) >= params.get("eta_a", 0.8):
-            return "eta_b must be smaller than eta_a"
-        for key in ("eta_c", "expiry", "lost_after", "help_every", "target_every", "switch_delay", "lease"):
-            if key in params and (not is_int(params[key]) or params[key] < 1):
-                return f"{key} = {params[key]!r} must be a positive integer"
-        for key in ("k1", "k2", "k3", "k4", "k5", "k6", "k7", "k8"):
-            if key in params and (not is_num(params[key]) or params[key] < 0):
-                return f"{key} = {params[key]!r} must be a non-negative number"
-        if params.get("aat", PROPOSED) not in MODES:
-            return f"aat = {params.get('aat')!r} must be one of {MODES}"
-        t = params.get("targets")
-        if t is not None:
-            if isinstance(t, dict):
-                if set(t) - {"seed", "count", "lo", "hi"} or not is_int(t.get("count", 0)):
-                    return "targets as a table takes seed, count, lo, hi"
-            elif not (isinstance(t, list) and all(_vec(p) for p in t)):
-                return "targets must be a list of [x, y] points or {seed, count, lo, hi}"
-        return None
+        """What is wrong with a scenario's parameters (``RoleParams.problem``), or None."""
+        return RoleParams.problem(params)
 
     # ---------------------------------------------------------- helpers
     def _set_role(self, ctx: Context, role: str) -> None:
@@ -256,19 +224,19 @@ class RoleSwitching(Behavior, _Timed):
         self._sensed_ids: list[int] = []
         self._sensed_index: dict[int, int] = {}
         self._sensed_pos = np.zeros((0, 2))
-        if ctx.id == self.base:
+        if ctx.id == self.p.base:
             self.role = BS
-            self.child = self.leader
+            self.child = self.p.leader
             self.targets = self._draw_targets()
-        elif ctx.id == self.leader:
+        elif ctx.id == self.p.leader:
             self.role = LL
-            self.parent = self.base
-        self.known_role[self.base] = BS
-        self.known_role[self.leader] = LL
+            self.parent = self.p.base
+        self.known_role[self.p.base] = BS
+        self.known_role[self.p.leader] = LL
         self.role_log.append([ctx.tick, self.role])
 
     def _draw_targets(self) -> list[list[float]]:
-        t = self.targets_param
+        t = self.p.targets
         if t is None:
             return []
         if isinstance(t, dict):
@@ -576,7 +544,7 @@ class RoleSwitching(Behavior, _Timed):
             if ctx.tick >= ho["T"]:
                 self._finish_handover(ctx)
             return
-        if ctx.tick > ho["T"] + self.lease:  # H4: lease expired without any answer - keep the lead
+        if ctx.tick > ho["T"] + self.p.lease:  # H4: lease expired without any answer - keep the lead
             ho["outcome"] = "timeout"
             ho["end"] = ctx.tick
             self.issued = max(self.issued, ho["epoch"]) + 1
@@ -593,7 +561,7 @@ class RoleSwitching(Behavior, _Timed):
     def _start_handover(self, ctx: Context, to: int, kind: str) -> None:
         # every request gets an epoch never used before, so that a refused or abandoned one cannot tie
         self.issued = max(self.issued, self.epoch) + 1
-        ho = {"to": to, "kind": kind, "epoch": self.issued, "t": ctx.tick, "T": ctx.tick + self.switch_delay,
+        ho = {"to": to, "kind": kind, "epoch": self.issued, "t": ctx.tick, "T": ctx.tick + self.p.switch_delay,
               "sent": 0, "acked": None, "evidence": None, "outcome": None, "end": None}
         self.ho = ho
         self.handovers.append(ho)
@@ -645,38 +613,28 @@ class RoleSwitching(Behavior, _Timed):
         self._set_role(ctx, LL)
 
     def _algorithm1(self, ctx: Context, x: np.ndarray) -> None:
+        """Algorithm 1 (``rules.role_change_request``): ask a linked explorer or the parent to lead."""
         xp = self._where(self.parent)
         if xp is None:
             return
-        d = float(np.hypot(*(x - xp)))
-        if d > self.eta_a * self.d_c:
-            best = None
-            for c in self.conn.links:
-                if ctx.tick - self.nacked.get(c, -10**9) < 20:
-                    continue
-                xc = self._where(c)
-                lim = (self.eta_b + self.margin) * self.d_c
-                if xc is None or float(np.hypot(*(xc - x))) <= lim or float(np.hypot(*(xc - xp))) <= 2 * lim:
-                    continue  # H1': it would hand the lead straight back (we, its parent, too close, now or
-                    # once we stand at the midpoint of Eq. 1)
-                st = self.nbr.get(c)
-                n = st["n"] if st and st["r"] in LINKABLE else 0
-                dist_goal = float(np.hypot(*(xc - np.array(self.goal)))) if (self.goal and xc is not None) else 0.0
-                key = (-n, dist_goal, c)
-                if best is None or key < best[0]:
-                    best = (key, c)
-            if best is not None:
-                self._start_handover(ctx, best[1], EXTEND)
-            else:
-                self.stall += 1
-        elif (d < self.eta_b * self.d_c and self.parent != self.base
-              and ctx.tick - self.nacked.get(self.parent, -10**9) >= 20):
-            self._start_handover(ctx, self.parent, RETRACT)
+        cands = []
+        for c in self.conn.links:
+            st = self.nbr.get(c)
+            cands.append(Candidate(c, self._where(c), st["n"] if st and st["r"] in LINKABLE else 0,
+                                   self.nacked.get(c)))
+        req = role_change_request(ctx.tick, x, xp, self.parent, self.parent == self.p.base,
+                                  self.nacked.get(self.parent), cands, self.goal, self.p, self.d_c)
+        if req is None:
+            return
+        if req.to is None:
+            self.stall += 1
+        else:
+            self._start_handover(ctx, req.to, req.kind)
 
     # ---------------------------------------------------------- roles' ticks
     def _tick_base(self, ctx: Context) -> None:
         if self.target_i < len(self.targets) and self.child is not None:
-            if ctx.tick - self.last_target_sent >= self.target_every:
+            if ctx.tick - self.last_target_sent >= self.p.target_every:
                 ctx.send(self.child, TARGET, {"k": self.target_i, "x": self.targets[self.target_i]})
                 self.last_target_sent = ctx.tick
             self.goal, self.goal_k = self.targets[self.target_i], self.target_i
@@ -685,26 +643,8 @@ class RoleSwitching(Behavior, _Timed):
         xp, xc = self._where(self.parent), self._where(self.child)
         if xp is None or xc is None:
             return
-        _, k1, k2, k3, *_ = self.k
-        if self.known_role.get(self.child) == LL:  # Eq. 1: the midpoint of parent and local leader
-            u = k1 * ((xp - x) + (xc - x))
-        else:  # Eq. 2: eta_a * d_c from the parent, on the line to the child
-            dp = xp - x
-            n = float(np.hypot(*dp))
-            u = k2 * (dp - self.eta_a * self.d_c * dp / n if n > 1e-9 else dp) + k3 * ((xp - x) + (xc - x))
-        self.u = cap(self._hold(u, x, xp), self.vmax)
-
-    def _hold(self, u: np.ndarray, x: np.ndarray, xp: np.ndarray | None) -> np.ndarray:
-        """H6 (ours): a local leader or repeater beyond hold * d_c from its parent heads back towards it."""
-        if xp is None:
-            return u
-        r = x - xp
-        d = float(np.hypot(*r))
-        if d <= self.hold * self.d_c:
-            return u
-        rh = r / d
-        out = float(u @ rh)
-        return u - (out + self.vmax) * rh if out > -self.vmax else u
+        u = repeater_input(x, xp, xc, self.known_role.get(self.child) == LL, self.p, self.d_c)  # Eqs. 1-2
+        self.u = cap(hold(u, x, xp, self.p, self.d_c), self.p.vmax)
 
     def _tick_leader(self, ctx: Context, x: np.ndarray) -> None:
         if self.ho is None and self.pending is None:
@@ -712,27 +652,26 @@ class RoleSwitching(Behavior, _Timed):
         if self.role != LL:
             return
         self._algorithm2(ctx, x)
-        k4 = self.k[4]
-        u = k4 * (np.array(self.goal) - x) if self.goal is not None else np.zeros(2)  # Eq. 3
-        self.u = cap(self._hold(u, x, self._where(self.parent)), self.vmax)
+        u = leader_input(x, self.goal, self.p)  # Eq. 3
+        self.u = cap(hold(u, x, self._where(self.parent), self.p, self.d_c), self.p.vmax)
         # flood u_LL and x_LL to the explorers (message expiration, Sec. III-C)
         self.flood_seq += 1
-        self.seen[(self.id, self.flood_seq)] = ctx.now + self.expiry
+        self.seen[(self.id, self.flood_seq)] = ctx.now + self.p.expiry
         self.info = {"e": self.epoch, "o": self.id, "s": self.flood_seq, "x": _r(x), "u": _r(self.u)}
         self.last_info = ctx.tick
         if self.conn.links:
-            self._send_to(ctx, LL_INFO, {"o": self.id, "s": self.flood_seq, "dl": ctx.now + self.expiry, "h": 1,
+            self._send_to(ctx, LL_INFO, {"o": self.id, "s": self.flood_seq, "dl": ctx.now + self.p.expiry, "h": 1,
                                          "e": self.epoch, "x": _r(x), "u": _r(self.u)}, self.conn.links)
-        if self.goal is not None and float(np.hypot(*(x - np.array(self.goal)))) <= self.arrive:
+        if self.goal is not None and float(np.hypot(*(x - np.array(self.goal)))) <= self.p.arrive:
             if self.arrived_k != self.goal_k:
                 self.arrived_k = self.goal_k
                 self.last_arrived_sent = -10**9
-        if self.arrived_k == self.goal_k >= 0 and ctx.tick - self.last_arrived_sent >= self.target_every:
+        if self.arrived_k == self.goal_k >= 0 and ctx.tick - self.last_arrived_sent >= self.p.target_every:
             ctx.send(self.parent, ARRIVED, {"k": self.goal_k})
             self.last_arrived_sent = ctx.tick
 
     def _tick_explorer(self, ctx: Context, x: np.ndarray) -> None:
-        attached = ctx.tick - self.last_info <= self.lost_after
+        attached = ctx.tick - self.last_info <= self.p.lost_after
         if not attached and not self.lost:
             self.lost = True
             self.lost_episodes.append([ctx.tick, None])
@@ -744,37 +683,15 @@ class RoleSwitching(Behavior, _Timed):
         if self.lost:
             self.u = self._recover(ctx, x)
             return
-        _, _, _, _, _, k5, k6, k7, k8 = self.k
-        x0, x1 = float(x[0]), float(x[1])
-        ux = uy = 0.0
         links = sorted(self.conn.links)
-        if links:
-            mx = my = 0.0
-            for j in links:  # Eq. 5: velocity matching
-                st = self.nbr.get(j)
-                if st is not None:
-                    mx += st["u"][0]
-                    my += st["u"][1]
-            ux += k5 / len(links) * mx
-            uy += k5 / len(links) * my
-            for j in links:  # Eq. 6: distance keeping
-                xj = self._where(j)
-                if xj is None:
-                    continue
-                dx, dy = float(xj[0]) - x0, float(xj[1]) - x1
-                n = math.hypot(dx, dy)
-                if n > 1e-9:
-                    ux += k6 * (dx - self.d_n * dx / n)
-                    uy += k6 * (dy - self.d_n * dy / n)
-        if self.info is not None:  # Eq. 7: follow the local leader
-            il, xl = self.info["u"], self.info["x"]
-            ux += k7 * il[0] + k8 * (xl[0] - x0)
-            uy += k7 * il[1] + k8 * (xl[1] - x1)
-        self.u = cap(np.array([ux, uy]), self.vmax)  # Eq. 4
+        link_u = [st["u"] if (st := self.nbr.get(j)) is not None else None for j in links]
+        link_x = [self._where(j) for j in links]
+        leader = (self.info["u"], self.info["x"]) if self.info is not None else None
+        self.u = explorer_input(x, link_u, link_x, leader, self.p)  # Eqs. 4-7
 
     def _recover(self, ctx: Context, x: np.ndarray) -> np.ndarray:
         """Sec. III-D: head to the origin; ask repeaters / the base station where their child is; go there."""
-        if ctx.tick - self.last_help >= self.help_every:
+        if ctx.tick - self.last_help >= self.p.help_every:
             h = self.head
             if h is not None and h["role"] == RP and h["id"] in self._sensed_index:
                 ctx.send(h["id"], HELP, {})  # switch the temporary connection to the found repeater
@@ -789,15 +706,15 @@ class RoleSwitching(Behavior, _Timed):
             if k is None and float(np.hypot(*(goal - x))) < 0.1:
                 self.head = self.temp = None  # nobody at the place we were sent to: back to the origin
             else:
-                return cap((goal - x) * 1e3, self.vmax)
-        return cap(-x * 1e3, self.vmax)
+                return head_to(x, goal, self.p.vmax)
+        return head_to(x, None, self.p.vmax)
 
     # ---------------------------------------------------------- Algorithm 2
     def _algorithm2(self, ctx: Context, x: np.ndarray) -> None:
         extra = sorted(self.repair)
         self.repair.clear()
         ids, pos = self._participants()
-        chain = {r for r in (self.parent, self.child, self.base) if r is not None}
+        chain = {r for r in (self.parent, self.child, self.p.base) if r is not None}
         added, removed, rejected = self.conn.refresh(
             x, ids, pos, chain, self.role_changed,
             force_all=self.lost, extra=extra, fixed=1 if self.role == LL else 0)
