@@ -47,7 +47,6 @@ from pathlib import Path
 
 from swarmactors.launcher import fixed_hash_seed
 from swarmactors.result import to_jsonable
-from swarmactors.scene import toml_value
 from transport.messages import DROP_CAUSES
 
 COLUMNS_AFTER_GRID = ["trial", "seed", "ticks", "trace_hash", "stop_reason", "robots", "alive", "frames_sent",
@@ -97,9 +96,25 @@ class Sweep:
     def trial_dir(self, t: Trial) -> Path:
         return self.out / "trials" / point_slug(self.keys, t.values) / f"t{t.trial}"
 
-    def trial_overrides(self, t: Trial) -> list[str]:
-        return [*self.overrides, *[f"{k}={toml_value(v)}" for k, v in zip(self.keys, t.values, strict=True)],
-                f"run.seed={t.seed}"]
+    def trial_values(self, t: Trial) -> dict:
+        """The values this trial sets on top of the overrides: its grid point's and its seed."""
+        return {**dict(zip(self.keys, t.values, strict=True)), "run.seed": t.seed}
+
+
+def load_point(scenario: str | Path, overrides: list[str], values: dict) -> dict:
+    """The scenario with the ``--set`` overrides (text, as typed) and then ``values`` set as Python values.
+
+    Grid values are set as the values ``parse_grid`` read, not written back to TOML text and parsed again.
+    """
+    from swarmactors.scenario import apply_override, read_raw, resolve_scenario, set_value
+
+    source = str(scenario)
+    raw = read_raw(scenario)
+    for item in overrides:
+        apply_override(raw, item, source)
+    for key, value in values.items():
+        set_value(raw, key, value, source)
+    return resolve_scenario(raw, source)
 
 
 # ---------------------------------------------------------------- set-up
@@ -153,7 +168,7 @@ def prepare(scenario: str | Path, overrides: list[str], grid_items: list[str], t
     base = load(scenario, overrides)  # ScenarioError names the file and the key
     for key, values in grid:
         for v in values:
-            load(scenario, [*overrides, f"{key}={toml_value(v)}"])
+            load_point(scenario, overrides, {key: v})
     digest_src = {k: v for k, v in to_jsonable(base).items() if k != "source"}
     identity = {
         "version": SWEEP_VERSION,
@@ -172,7 +187,6 @@ def prepare(scenario: str | Path, overrides: list[str], grid_items: list[str], t
 def run_trial(sweep_args: dict, t: Trial) -> dict:
     """Run one trial (in a worker process); return its CSV row (cells as strings), or None if interrupted."""
     from swarmactors.launcher import run_world
-    from swarmactors.scenario import load
     from transport import Endpoints
 
     sw: Sweep = sweep_args["sweep"]
@@ -182,7 +196,7 @@ def run_trial(sweep_args: dict, t: Trial) -> dict:
     if out_dir.exists():
         shutil.rmtree(out_dir)  # a trial cut short before: start it afresh
     try:
-        sc = load(sw.scenario, sw.trial_overrides(t))
+        sc = load_point(sw.scenario, sw.overrides, sw.trial_values(t))
         run_id = f"sweep-{hashlib.blake2b(repr((sw.identity, t.key(sw.keys))).encode(), digest_size=6).hexdigest()}"
         result = asyncio.run(run_world(sc, out_dir, Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"]), run_id,
                                        processes=sc["run"]["processes"]))

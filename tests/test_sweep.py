@@ -12,7 +12,8 @@ import time
 import pytest
 
 from swarmactors.cli import main
-from swarmactors.sweep import SweepError, parse_grid, trial_seed
+from swarmactors.scenario import ScenarioError, load
+from swarmactors.sweep import SweepError, load_point, parse_grid, trial_seed
 
 SCENARIO = """
 [run]
@@ -113,3 +114,16 @@ def test_grid_values_and_seeds():
     seeds = [trial_seed(7, i) for i in range(100)]
     assert seeds == [trial_seed(7, i) for i in range(100)] and len(set(seeds)) == 100
     assert trial_seed(8, 0) != trial_seed(7, 0) and all(0 <= s < 2**31 for s in seeds)
+
+
+def test_grid_values_are_set_as_values_not_toml_text(tmp_path):
+    scenario = tmp_path / "sw.toml"
+    scenario.write_text(SCENARIO)
+    values = {"world.bounds": [[-1.0, -1.0], [12.0, 3.0]], "robots.0.placement": "grid", "run.seed": 11}
+    sc = load_point(scenario, ["radio.loss=0.25"], values)
+    assert (sc["world"]["bounds"], sc["robots"][0]["placement"], sc["run"]["seed"], sc["radio"]["loss"]) == (
+        [[-1.0, -1.0], [12.0, 3.0]], "grid", 11, 0.25)
+    text = ["radio.loss=0.25", "world.bounds=[[-1.0, -1.0], [12.0, 3.0]]", 'robots.0.placement="grid"', "run.seed=11"]
+    assert sc == load(scenario, text)
+    with pytest.raises(ScenarioError, match=r"robots\.3\.count"):
+        load_point(scenario, [], {"robots.3.count": 2})
