@@ -16,7 +16,8 @@ or the scenario's own modules for ``run``/``world``), and the object must be a
 
 from __future__ import annotations
 
-import importlib
+import pkgutil
+import sys
 from collections.abc import Collection
 from functools import cache
 from importlib.metadata import entry_points
@@ -43,16 +44,16 @@ def resolve(group: str, name: str) -> Any:
         known = ", ".join(sorted(available(group))) or "none registered"
         raise PluginError(f"unknown {group.rsplit('.', 1)[-1][:-1]} {name!r} (known: {known}; or give module:Class)")
     module_name, _, attr = target.partition(":")
+    if not module_name or not attr:
+        raise PluginError(f"{name!r}: give module:attribute")
     try:
-        module = importlib.import_module(module_name)
+        return pkgutil.resolve_name(target)
+    except AttributeError as exc:
+        if module_name in sys.modules:  # the module imported; the attribute is missing
+            raise PluginError(f"module {module_name!r} has no attribute {attr!r} (for {name!r})") from None
+        raise PluginError(f"cannot import {module_name!r} for {name!r}: {exc.__class__.__name__}: {exc}") from None
     except Exception as exc:
         raise PluginError(f"cannot import {module_name!r} for {name!r}: {exc.__class__.__name__}: {exc}") from None
-    obj = module
-    for part in attr.split("."):
-        if not hasattr(obj, part):
-            raise PluginError(f"module {module_name!r} has no attribute {attr!r} (for {name!r})")
-        obj = getattr(obj, part)
-    return obj
 
 
 class RefusedBehavior(PluginError):
