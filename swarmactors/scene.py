@@ -16,11 +16,11 @@ which viewers call at their own pace.
 
 from __future__ import annotations
 
-import json
-import math
 import re
 from collections import Counter, deque
 from typing import Any
+
+import tomli_w
 
 from swarmactors.result import to_jsonable
 from transport import unpack
@@ -303,42 +303,17 @@ _EXPORTED = ("kill", "cut", "restore", "partition", "heal", "loss", "move", "sto
 
 
 def events_toml(events: list[dict], run_id: str = "") -> str:
-    """``[[events]]`` tables reproducing control actions (as recorded by the world, with their tick)."""
+    """``[[events]]`` tables reproducing control actions (as recorded by the world, with their tick), by tomli_w."""
     lines = [f"# Actions applied through the control queryable{f' during run {run_id}' if run_id else ''}.",
              "# Paste into the scenario to make the run reproducible without the viewer."]
-    if not events:
-        lines.append("# (none yet)")
+    tables = []
     for ev in events:
         action = next((k for k in _EXPORTED if k in ev), None)
-        if action is None:
-            if "added" in ev:
-                lines.append(f"# at tick {ev.get('t')}: robots {ev['added']} were added by control "
-                             "(their specs are not recorded: write an [[events]] add table by hand)")
-            continue
-        value = ev[action]
-        lines += ["", "[[events]]", f"at = {int(ev['t'])}", f"{action} = {toml_value(value)}"]
-    return "\n".join(lines) + "\n"
-
-
-def toml_value(v: Any) -> str:
-    """A value as an inline TOML literal (numbers, strings, booleans, arrays, inline tables)."""
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if not math.isfinite(v):
-            raise ValueError(f"{v!r} has no TOML literal here")
-        return repr(v)
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(toml_value(x) for x in v) + "]"
-    if isinstance(v, dict):
-        return "{ " + ", ".join(f"{_toml_key(k)} = {toml_value(x)}" for k, x in v.items()) + " }"
-    raise ValueError(f"{type(v).__name__} has no TOML literal")
-
-
-def _toml_key(k: Any) -> str:
-    k = str(k)
-    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else json.dumps(k)
+        if action is not None:
+            tables.append({"at": int(ev["t"]), action: ev[action]})
+        elif "added" in ev:
+            lines.append(f"# at tick {ev.get('t')}: robots {ev['added']} were added by control "
+                         "(their specs are not recorded: write an [[events]] add table by hand)")
+    if not tables:
+        return "\n".join([*lines, "# (no action to export yet)"]) + "\n"
+    return "\n".join(lines) + "\n\n" + tomli_w.dumps({"events": tables})

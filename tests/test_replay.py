@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import shutil
+import tomllib
 
 import aiohttp
 import msgpack
@@ -92,7 +93,7 @@ async def test_replay_shows_the_live_positions_at_intermediate_ticks(tmp_path):
                 detail = await r.json()
             assert detail["status"]["moved"] is not None and detail["frames_available"]
             async with http.get(url + "api/events.toml") as r:
-                assert f"[[events]]\nat = {death}\nkill = [4]\n" in await r.text()
+                assert {"at": death, "kill": [4]} in tomllib.loads(await r.text())["events"]
     finally:
         await server.close()
 
@@ -111,7 +112,7 @@ def test_replay_events_prints_the_control_actions(tmp_path, capsys):
             f.write(msgpack.packb(obj))
     assert main(["replay", str(trace), "--events"]) == 0
     out = capsys.readouterr().out
-    assert "[[events]]\nat = 1\nkill = [1]\n" in out and "[[events]]\nat = 2\nloss = 0.25\n" in out
+    assert tomllib.loads(out)["events"] == [{"at": 1, "kill": [1]}, {"at": 2, "loss": 0.25}]  # tomli_w wrote it
     assert "cut" not in out  # scenario events are in the scenario already
 
 
