@@ -38,6 +38,31 @@ def marker_size(n: int) -> float:
     return float(np.clip(9000.0 / max(n, 1), 2.0, 90.0))
 
 
+def categories(values: list) -> list[str]:
+    """The legend's categories of a field's values (as strings, numbers by value), "other" past CATEGORY_MAX."""
+    cats = sorted({str(v) for v in values if v is not None}, key=_natural)
+    return cats[:CATEGORY_MAX - 1] + ["other"] if len(cats) > CATEGORY_MAX else cats
+
+
+def category_cmap(cats: list[str]):
+    """The qualitative colour map for ``cats`` (tab10, or tab20 past ten categories)."""
+    return plt.get_cmap("tab10" if len(cats) <= 10 else "tab20")
+
+
+def category_codes(cats: list[str], values: list) -> np.ndarray:
+    """Each value's index in ``cats`` (values not among them: the last one, "other")."""
+    index = {c: i for i, c in enumerate(cats)}
+    return np.array([index.get(str(v), len(cats) - 1) for v in values], dtype=int)
+
+
+def write_ids(ax, pos: dict[int, tuple], fontsize: float = 6) -> None:
+    """Write each robot's id on its disc, black with a white halo (readable on dark discs too)."""
+    halo = [patheffects.withStroke(linewidth=1.6, foreground="white")]
+    for rid, p in pos.items():
+        ax.text(p[0], p[1], str(rid), fontsize=fontsize, ha="center", va="center", zorder=5, color="black",
+                path_effects=halo)
+
+
 def swarm_links(result: Result, tick: int) -> list[tuple[int, int]]:
     """The links of the swarm at ``tick`` (undirected, as ``Result.graph_at``)."""
     return list(result.graph_at(tick).edges)
@@ -112,13 +137,9 @@ def draw_swarm(path: Path, pos: dict[int, tuple], edges: list[tuple[int, int]], 
         xy = np.array([pos[r] for r in have], dtype=float)
         vals = [values[r] for r in have]
         if is_categorical(vals):
-            cats = sorted({str(v) for v in vals}, key=_natural)
-            if len(cats) > CATEGORY_MAX:
-                cats = cats[:CATEGORY_MAX - 1] + ["other"]
-            index = {c: i for i, c in enumerate(cats)}
-            cmap = plt.get_cmap("tab10" if len(cats) <= 10 else "tab20")
-            codes = np.array([index.get(str(v), len(cats) - 1) for v in vals])
-            ax.scatter(xy[:, 0], xy[:, 1], c=cmap(codes), s=size, zorder=3, **edge_kw)
+            cats = categories(vals)
+            cmap = category_cmap(cats)
+            ax.scatter(xy[:, 0], xy[:, 1], c=cmap(category_codes(cats, vals)), s=size, zorder=3, **edge_kw)
             handles += [Line2D([], [], marker="o", ls="", color=cmap(i), markeredgecolor="k", label=c)
                         for i, c in enumerate(cats)]
         else:
@@ -136,10 +157,7 @@ def draw_swarm(path: Path, pos: dict[int, tuple], edges: list[tuple[int, int]], 
         ax.scatter(xy[:, 0], xy[:, 1], marker="x", c="red", s=max(size * 0.7, 4), zorder=4)
         handles.append(Line2D([], [], marker="x", ls="", color="red", label="failed"))
     if labels if labels is not None else n <= LABEL_MAX:
-        halo = [patheffects.withStroke(linewidth=1.6, foreground="white")]  # readable on dark discs too
-        for rid, (x, y) in pos.items():
-            ax.text(x, y, str(rid), fontsize=6, ha="center", va="center", zorder=5, color="black",
-                    path_effects=halo)
+        write_ids(ax, pos)
     if handles:
         title = field if field and len(handles) > 1 else None
         if colorbar:  # the colour bar holds the right side: the legend goes under the x label

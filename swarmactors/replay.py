@@ -6,7 +6,8 @@ tick. Scenes are rebuilt from checkpoints taken every ``CHECKPOINT_EVERY``
 ticks, so a seek costs at most that many records.
 
 ``render(trace, out)`` draws one frame per rendered tick (every ``every``-th
-tick, and the last) into a GIF (Pillow) or an MP4 (ffmpeg).
+tick, and the last) into a GIF (Pillow) or an MP4 (ffmpeg), each with the
+status field's legend, robot ids when readable and the whole run in view.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from __future__ import annotations
 import bisect
 import json
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 from swarmactors.scene import Scene
@@ -91,9 +93,31 @@ class Replay:
 
 
 # ---------------------------------------------------------------- animations
+@dataclass
+class FrameStyle:
+    """What stays fixed over an animation: colours, legend, limits and ids (so frames do not jump)."""
+
+    field: str | None
+    cats: list[str] | None  # categorical field: its legend, in colour order
+    span: tuple[float, float] | None  # numeric field: the colour scale's range over the whole run
+    lo: tuple[float, float]
+    hi: tuple[float, float]
+    labels: bool  # write robot ids
+    size: float  # marker area (points^2)
+    bounds: list | None  # the world's bounds, drawn as a dashed frame
+    missing: bool  # some robot has no value of the field in some frame
+    failed: bool  # some robot fails during the animation
+    objects: bool
+
+
 def render(trace: str | Path, out: str | Path, every: int = 1, fps: float = 10.0, field: str | None = None,
-           progress: Callable[[int, int], None] | None = None) -> int:
-    """Write an animation of the trace to ``out`` (.gif or .mp4); return the number of frames."""
+           progress: Callable[[int, int], None] | None = None, labels: bool | None = None) -> int:
+    """Write an animation of the trace to ``out`` (.gif or .mp4); return the number of frames.
+
+    Every frame has the legend of ``field`` (categories, or one colour bar on a scale fixed for the run), robot
+    ids when they can be read (N <= ``plots.LABEL_MAX``, or ``labels``), and limits that hold every robot and
+    object of the whole run with a margin, so nothing is cut off at the world's edge.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -113,15 +137,14 @@ def render(trace: str | Path, out: str | Path, every: int = 1, fps: float = 10.0
     if ticks[-1] != replay.last:
         ticks.append(replay.last)
     scenes = _scenes_along(replay, ticks)
-    field = field or replay._base.field
-    lo, hi = _extent(replay, scenes)
-    fig, ax = plt.subplots(figsize=(6.4, 6.0), dpi=80)
+    style = frame_style(replay, scenes, field or replay._base.field, labels)
+    fig, ax = frame_figure(style)
     writer = animation.PillowWriter(fps=fps) if suffix == ".gif" else animation.FFMpegWriter(fps=fps)
     name = replay.header.get("scenario", {}).get("run", {}).get("name", replay.header.get("run_id", ""))
     with writer.saving(fig, str(out), dpi=80):
         for i, scene in enumerate(scenes):
             ax.clear()
-            draw_scene(ax, scene, field, lo, hi)
+            draw_scene(ax, scene, style)
             ax.set_title(f"{name}: tick {scene.t}")  # every frame differs, so none is merged away
             writer.grab_frame()
             if progress:
@@ -143,19 +166,59 @@ def _scenes_along(replay: Replay, ticks: list[int]) -> list[Scene]:
     return out
 
 
-def _extent(replay: Replay, scenes: list[Scene]):
-    b = replay._base.bounds
-    if b:
-        return b[0][:2], b[1][:2]
-    xs = [row[1] for s in scenes for row in s.pos] or [0.0]
-    ys = [row[2] for s in scenes for row in s.pos] or [0.0]
-    pad = max(max(xs) - min(xs), max(ys) - min(ys), 1.0) * 0.05
-    return [min(xs) - pad, min(ys) - pad], [max(xs) + pad, max(ys) + pad]
-
-
-def draw_scene(ax, scene: Scene, field: str | None, lo, hi) -> None:
-    """One animation frame: links, robots coloured by ``field``, failed robots, objects, senders."""
+def frame_style(replay: Replay, scenes: list[Scene], field: str | None, labels: bool | None = None) -> FrameStyle:
+    """Decide the animation's colours, legend, limits and ids from every scene it shows."""
     import numpy as np
+
+    from swarmactors.plots import LABEL_MAX, categories, is_categorical, marker_size
+    from swarmactors.trajectories import _extent
+
+    values = [v for s in scenes for st in s.status.values() if (v := st.get(field)) is not None] if field else []
+    cats = span = None
+    if values and is_categorical(values):
+        cats = categories(values)
+    elif values:
+        span = (float(min(values)), float(max(values)))
+    points = [row[1:3] for s in scenes for row in s.pos]
+    points += [d["pos"][:2] for s in scenes for d in s.dead.values() if d["pos"] is not None]
+    points += [p[:2] for s in scenes for p in s.objects.values()]
+    xy = np.asarray(points, dtype=float).reshape(-1, 2)
+    lo, hi = _extent(xy, replay._base.bounds)  # the world's bounds unless far larger than where robots went
+    pad = max(float((hi - lo).max()) * 0.06, 0.2)  # a disc (and its id) at the very edge stays whole
+    n = max((len(s.pos) + len(s.dead) for s in scenes), default=0)
+    labels = labels if labels is not None else n <= LABEL_MAX
+    size = 150.0 if labels else min(marker_size(n), 70.0)  # a disc that holds its id when ids are written
+    missing = bool(field) and any(s.status.get(row[0], {}).get(field) is None for s in scenes for row in s.pos)
+    return FrameStyle(field, cats, span, (lo[0] - pad, lo[1] - pad), (hi[0] + pad, hi[1] + pad),
+                      labels, size,
+                      replay._base.bounds, missing, any(s.dead for s in scenes), any(s.objects for s in scenes))
+
+
+def frame_figure(style: FrameStyle):
+    """The figure every frame is drawn on: room on the right for the legend, or one fixed colour bar."""
+    import matplotlib.pyplot as plt
+    from matplotlib import cm, colors
+
+    fig, ax = plt.subplots(figsize=(8.0, 6.0), dpi=80)
+    if style.span is not None:
+        norm = colors.Normalize(*style.span) if style.span[1] > style.span[0] else colors.Normalize(
+            style.span[0] - 0.5, style.span[1] + 0.5)
+        fig.colorbar(cm.ScalarMappable(norm=norm, cmap="viridis"), ax=ax, label=style.field, shrink=0.8)
+        fig.subplots_adjust(left=0.08, right=0.98, bottom=0.2, top=0.93)  # the legend goes under the axes
+    else:
+        fig.subplots_adjust(left=0.08, right=0.74, bottom=0.1, top=0.93)  # the legend goes on the right
+    return fig, ax
+
+
+def draw_scene(ax, scene: Scene, style: FrameStyle) -> None:
+    """One animation frame: links, robots coloured by the style's field, ids, failed robots, objects, legend."""
+    import matplotlib
+    import numpy as np
+    from matplotlib.collections import LineCollection
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Rectangle
+
+    from swarmactors.plots import category_cmap, category_codes, write_ids
 
     ids = [row[0] for row in scene.pos]
     xy = np.array([row[1:3] for row in scene.pos], dtype=float).reshape(-1, 2)
@@ -164,39 +227,56 @@ def draw_scene(ax, scene: Scene, field: str | None, lo, hi) -> None:
         d = np.linalg.norm(xy[:, None, :] - xy[None, :, :], axis=2)
         a, b = np.nonzero(np.triu((d <= rng[:, None]) & (d <= rng[None, :]), 1))
         if len(a):
-            from matplotlib.collections import LineCollection
-
             ax.add_collection(LineCollection(np.stack([xy[a], xy[b]], axis=1), colors="0.82", linewidths=0.8,
                                              zorder=1))
-    values = [scene.status.get(i, {}).get(field) if field else None for i in ids]
-    numeric = [v for v in values if isinstance(v, (int, float)) and not isinstance(v, bool)]
-    colours = []
-    if numeric:
-        import matplotlib
-
+    if style.bounds:
+        (x0, y0), (x1, y1) = style.bounds[0][:2], style.bounds[1][:2]
+        ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, ls="--", lw=0.8, ec="0.5", zorder=0))
+    values = [scene.status.get(i, {}).get(style.field) if style.field else None for i in ids]
+    handles = []
+    if style.cats is not None:
+        cmap = category_cmap(style.cats)
+        codes = category_codes(style.cats, values)
+        colours = [cmap(c) if v is not None else "white" for c, v in zip(codes, values, strict=True)]
+        handles += [Line2D([], [], marker="o", ls="", color=cmap(i), markeredgecolor="0.3", label=c)
+                    for i, c in enumerate(style.cats)]
+    elif style.span is not None:
+        vmin, vmax = style.span
         cmap = matplotlib.colormaps["viridis"]
-        vmin, vmax = min(numeric), max(numeric)
-        for v in values:
-            if isinstance(v, (int, float)) and not isinstance(v, bool):
-                colours.append(cmap(0.5 if vmax == vmin else (v - vmin) / (vmax - vmin)))
-            else:
-                colours.append("white")
+        colours = [cmap(0.5 if vmax == vmin else (v - vmin) / (vmax - vmin)) if isinstance(v, (int, float))
+                   and not isinstance(v, bool) else "white" for v in values]
     else:
-        palette = ["#4e79a7", "#f28e2b", "#59a14f", "#b07aa1", "#76b7b2", "#edc948", "#ff9da7", "#9c755f"]
-        names = sorted({str(v) for v in values if v is not None})
-        colours = ["white" if v is None else palette[names.index(str(v)) % len(palette)] for v in values]
+        colours = ["white"] * len(ids)
+    if style.missing:
+        handles.append(Line2D([], [], marker="o", ls="", color="white", markeredgecolor="0.3",
+                              label=f"no {style.field}"))
     if len(ids):
         talking = scene.activity()
         edge = ["#e15759" if str(i) in talking else "0.3" for i in ids]
-        ax.scatter(xy[:, 0], xy[:, 1], c=colours, s=70, edgecolors=edge, linewidths=1.2, zorder=3)
+        ax.scatter(xy[:, 0], xy[:, 1], c=colours, s=style.size, edgecolors=edge, linewidths=1.2, zorder=3)
+    handles.append(Line2D([], [], marker="o", ls="", color="white", markeredgecolor="#e15759", markeredgewidth=1.2,
+                          label="sent frames lately"))
     for rid, d in scene.dead.items():
         if d["pos"] is not None and rid not in ids:
             ax.scatter([d["pos"][0]], [d["pos"][1]], marker="x", c="red", s=50, zorder=4)
+    if style.failed:
+        handles.append(Line2D([], [], marker="x", ls="", color="red", label="failed"))
     for name, p in scene.objects.items():
         ax.scatter([p[0]], [p[1]], marker="D", c="#f1a340", s=80, edgecolors="k", zorder=5)
         ax.annotate(name, (p[0], p[1]), xytext=(5, 5), textcoords="offset points", fontsize=8)
-    ax.set_xlim(lo[0], hi[0])
-    ax.set_ylim(lo[1], hi[1])
+    if style.objects:
+        handles.append(Line2D([], [], marker="D", ls="", color="#f1a340", markeredgecolor="k", label="object"))
+    if style.labels:
+        write_ids(ax, {row[0]: row[1:3] for row in scene.pos}, fontsize=7)
+    title = style.field if style.cats is not None else None
+    if style.span is not None:
+        ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=min(len(handles), 4),
+                  fontsize=8, frameon=False)
+    else:
+        ax.legend(handles=handles, title=title, loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8,
+                  frameon=False)
+    ax.set_xlim(style.lo[0], style.hi[0])
+    ax.set_ylim(style.lo[1], style.hi[1])
     ax.set_aspect("equal")
     ax.set_xlabel("x (length units)")
     ax.set_ylabel("y (length units)")

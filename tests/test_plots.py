@@ -83,3 +83,83 @@ def test_trajectories_of_a_large_swarm_is_a_heat_map(tmp_path, monkeypatch):
     monkeypatch.setattr("swarmactors.trajectories.LineCollection", lambda *a, **k: drawn.append(1))
     plot_trajectories(_records(250, 4), tmp_path / "t.png")
     assert drawn == []
+
+
+# ---------------------------------------------------------------- GIF / MP4 frames (swarmactors.replay)
+def _trace(path, n: int, ticks: int, role=True):
+    """A trace on disk (no run needed): robots on the world's edges, a categorical role, one failure."""
+    import msgpack
+
+    side = 4.0
+    header = {"trace": "swarmactors", "version": 1, "run_id": "edge", "clock": "lockstep", "seed": 1,
+              "scenario": {"run": {"name": "edge"}, "radio": {"range": 1.0},
+                           "world": {"bounds": [[0.0, 0.0], [side, side]]}}}
+    with open(path, "wb") as f:
+        f.write(msgpack.packb(header))
+        for t in range(ticks):
+            alive = range(n) if t < ticks - 1 else range(1, n)  # robot 0 fails at the last tick
+            pos = [[i, side * (i % 2), side * i / (n - 1)] for i in alive]  # x = 0 or 4: on the edge
+            rec = {"t": t, "pos": pos}
+            if role:
+                rec["status"] = {i: {"role": ("leader", "relay", "explorer")[(i + t) % 3]} for i in alive}
+            if t == ticks - 1:
+                rec["ev"] = [{"t": t, "robot": 0, "failed": "killed"}]
+            f.write(msgpack.packb(rec))
+        f.write(msgpack.packb({"end": True, "ticks": ticks, "trace_hash": "0" * 32}))
+    return path
+
+
+def test_animation_frames_have_a_legend_ids_and_the_whole_world(tmp_path):
+    import matplotlib.pyplot as plt
+    from PIL import Image
+
+    from swarmactors.replay import Replay, _scenes_along, draw_scene, frame_figure, frame_style, render
+
+    trace = _trace(tmp_path / "trace.msgpack", 8, 5)
+    replay = Replay(trace)
+    scenes = _scenes_along(replay, replay.ticks())
+    style = frame_style(replay, scenes, "role")
+    assert style.cats == ["explorer", "leader", "relay"] and style.labels and style.failed
+    fig, ax = frame_figure(style)
+    draw_scene(ax, scenes[-1], style)
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert legend[:3] == ["explorer", "leader", "relay"] and "failed" in legend
+    assert ax.get_legend().get_title().get_text() == "role"
+    assert sorted(t.get_text() for t in ax.texts) == [str(i) for i in range(1, 8)]  # ids of the alive robots
+    fig.canvas.draw()
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    assert x0 < 0 and x1 > 4 and y0 < 0 and y1 > 4  # robots on the world's edge are not cut
+    radius = np.sqrt(style.size) / 2 * fig.dpi / 72  # the disc's radius in pixels
+    box = ax.get_window_extent()
+    for row in scenes[-1].pos:
+        px, py = ax.transData.transform(row[1:3])
+        assert box.x0 + radius <= px <= box.x1 - radius and box.y0 + radius <= py <= box.y1 - radius, row
+    for text in ax.get_legend().get_texts():  # the legend is inside the figure, not cut at its edge
+        ext = text.get_window_extent()
+        assert ext.x1 <= fig.bbox.x1 and ext.y0 >= fig.bbox.y0
+    plt.close(fig)
+    assert render(trace, tmp_path / "edge.gif", every=2) == 3  # ticks 0, 2, 4
+    with Image.open(tmp_path / "edge.gif") as img:
+        assert img.n_frames == 3
+
+
+def test_animation_of_a_numeric_field_keeps_one_scale_and_many_robots_have_no_ids(tmp_path):
+    import matplotlib.pyplot as plt
+
+    from swarmactors.plots import LABEL_MAX
+    from swarmactors.replay import Replay, _scenes_along, draw_scene, frame_figure, frame_style
+
+    trace = _trace(tmp_path / "trace.msgpack", LABEL_MAX + 5, 3, role=False)
+    replay = Replay(trace)
+    scenes = _scenes_along(replay, replay.ticks())
+    for s in scenes:
+        for row in s.pos:
+            s.status.setdefault(row[0], {})["hop"] = row[0] * s.t
+    style = frame_style(replay, scenes, "hop")
+    assert style.cats is None and style.span == (0.0, 2.0 * (LABEL_MAX + 4)) and not style.labels
+    fig, ax = frame_figure(style)
+    draw_scene(ax, scenes[0], style)
+    assert not ax.texts and len(fig.axes) == 2  # no ids; the axes and one colour bar
+    draw_scene(ax, scenes[1], style)
+    assert len(fig.axes) == 2  # still one colour bar
+    plt.close(fig)
