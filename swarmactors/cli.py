@@ -22,8 +22,8 @@ from swarmactors import export as export_cli
 from swarmactors import newproject, schedule_cli
 from swarmactors import scenario as scenario_mod
 from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME
-from swarmactors.hosting import serve_host
-from swarmactors.launcher import new_run_id, private_endpoints, run_world
+from swarmactors.hosting import HostError, serve_host
+from swarmactors.launcher import new_run_id, private_endpoints, run_dir, run_world, validate_run
 from swarmactors.plugins import BEHAVIORS, resolve
 from swarmactors.progress import RunProgress, summary_table
 from swarmactors.scenario import ScenarioError
@@ -49,16 +49,18 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="swarmactors", description="Robot swarms as asynchronous actors over Eclipse Zenoh.")
-    p.add_argument("-v", "--verbose", action="store_true", help="log at INFO level")
+    p.add_argument("-v", "--verbose", action="store_true", help="log at INFO level (and show tracebacks)")
+    p.add_argument("--version", action="version", version=f"swarmactors {_version()}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
-    def scenario_args(sp):
+    def scenario_args(sp, out_help: str = "output directory, used as given (default: a new "
+                      "out/<run.name>/<UTC time>-s<seed>, with out/<run.name>/latest pointing to it)"):
         sp.add_argument("scenario", help="scenario TOML file")
         sp.add_argument("--seed", type=int, help="override run.seed")
         sp.add_argument("--clock", choices=["lockstep", "realtime"], help="override run.clock")
         sp.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                         help="override any scenario key (repeatable), e.g. radio.loss=0.1 or robots.0.count=50")
-        sp.add_argument("--out", type=Path, help="output directory (default out/<run.name>)")
+        sp.add_argument("--out", type=Path, help=out_help)
         sp.add_argument("--quiet", action="store_true", help="no progress display, no table")
         sp.add_argument("--json", action="store_true", help="print result.json's summary as JSON on stdout")
 
@@ -105,6 +107,13 @@ def build_parser() -> argparse.ArgumentParser:
     robots.add_argument("--allow", action="append", default=[], metavar="MODULE",
                         help="a module whose Behavior classes this host may run (repeatable); "
                              "registered behaviours are always allowed, nothing else is")
+    robots.add_argument("--wait", type=float, default=120.0, metavar="S",
+                        help="keep trying to reach the world for S seconds, with backoff (default 120), "
+                             "then exit 3")
+    robots.add_argument("--quiet", action="store_true", help="print only warnings and errors")
+
+    lst = sub.add_parser("list", help="list what is installed: behaviors, checks, families or scenarios")
+    lst.add_argument("what", choices=["behaviors", "checks", "families", "scenarios"])
 
     view = sub.add_parser("view", help="watch a running world in the browser (live viewer)")
     view.add_argument("--connect", default="tcp/127.0.0.1:7447", help="the world's Zenoh endpoint")
@@ -126,7 +135,7 @@ def build_parser() -> argparse.ArgumentParser:
     _server_args(replay, "--port", "--host")
 
     sweep = sub.add_parser("sweep", help="run a grid of parameters x trials over worker processes, to a CSV")
-    scenario_args(sweep)
+    scenario_args(sweep, "output directory (default out/<run.name>-sweep; a sweep resumes there)")
     sweep.add_argument("--grid", action="append", default=[], metavar="SECTION.KEY=V1,V2,...",
                        help="values of one key to sweep (repeatable: the grid is their product)")
     sweep.add_argument("--trials", type=int, default=1, help="runs per grid point, seeds derived from run.seed")
@@ -154,13 +163,44 @@ def _view_args(sp) -> None:
     sp.add_argument("--no-plots", action="store_true", help="do not write the per-run charts beside result.json")
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("swarmactors")
+    except PackageNotFoundError:
+        return "unknown"
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run one command; errors end in one line on stderr and an exit code, never a traceback (``-v`` shows it)."""
     args = build_parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return _main(args)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception as exc:  # the last resort: one line naming the error, the traceback only with -v
+        if args.verbose:
+            raise
+        code = EXIT_INPUT if isinstance(exc, (OSError, UnicodeError, ValueError, LookupError)) else EXIT_RUNTIME
+        print(f"error: {_one_line(exc)} (run with -v for the traceback)", file=sys.stderr)
+        return code
+
+
+def _one_line(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return f"{exc.__class__.__name__}: {text[0] if text else ''}".rstrip(": ")
+
+
+def _main(args) -> int:
     err = Console(stderr=True, no_color=not sys.stderr.isatty(), soft_wrap=True)
     _user_modules_importable(getattr(args, "scenario", None))
     try:
+        if args.command == "list":
+            return _list(args.what)
         if args.command == "robots":
             return _robots(args)  # bad credentials files raise ValueError: exit 2
         if args.command == "check":
@@ -169,12 +209,14 @@ def main(argv: list[str] | None = None) -> int:
             return schedule_cli.command(args)  # exit codes as documented there (0, 1, 2, 3)
         if args.command in ("export", "new"):
             return (export_cli if args.command == "export" else newproject).command(args)
+        if args.command == "sweep":
+            _scenario_file(args.scenario)
         if args.command in ("view", "replay", "sweep"):
             from swarmactors.see import command  # the viewer, replays and sweeps (docs/viewer.md)
 
             return command(args, err)
         sc = _load(args)
-    except (ScenarioError, UsageError, ValueError) as exc:
+    except (ScenarioError, UsageError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)  # plain text: paths and keys must not be wrapped
         return EXIT_INPUT
     try:
@@ -194,7 +236,25 @@ def _user_modules_importable(scenario: str | None) -> None:
             sys.path.append(folder)
 
 
+def _scenario_file(path: str) -> None:
+    """A scenario path that is a readable UTF-8 file (ScenarioError naming it otherwise)."""
+    p = Path(path)
+    if p.is_dir():
+        hint = ", ".join(sorted(q.name for q in p.glob("*.toml"))[:5])
+        raise ScenarioError(path, "file", "is a directory, not a scenario file" + (
+            f" (it holds {hint}{', ...' if len(list(p.glob('*.toml'))) > 5 else ''})" if hint else ""))
+    try:
+        p.read_bytes().decode("utf-8")
+    except FileNotFoundError:
+        raise ScenarioError(path, "file", "no such file") from None
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(path, "file", f"not UTF-8 text (a binary file?): byte {exc.start}") from None
+    except OSError as exc:
+        raise ScenarioError(path, "file", f"cannot read: {exc.strerror}") from None
+
+
 def _load(args) -> dict:
+    _scenario_file(args.scenario)
     overrides = list(args.set)
     if args.seed is not None:
         overrides.append(f"run.seed={args.seed}")
@@ -204,11 +264,15 @@ def _load(args) -> dict:
         if args.processes < 0:
             raise UsageError(f"--processes {args.processes}: must be >= 0")
         overrides.append(f"run.processes={args.processes}")
-    return scenario_mod.load(args.scenario, overrides)
+    sc = scenario_mod.load(args.scenario, overrides)
+    validate_run(sc, args.scenario)
+    return sc
 
 
 def _run(args, sc: dict, err: Console) -> int:
-    out_dir = args.out or Path("out") / sc["run"]["name"]
+    if args.out is not None and args.out.exists() and not args.out.is_dir():
+        raise UsageError(f"--out {args.out}: is a file, not a directory")
+    out_dir = args.out or run_dir(sc["run"]["name"], sc["run"]["seed"])
     if args.command == "world":
         run_id, local = args.run_id, False
         Keys(run_id)
@@ -347,19 +411,77 @@ def _plot_field(sc: dict) -> str | None:
     return None
 
 
+def _first_line(obj) -> str:
+    doc = (getattr(obj, "__doc__", None) or "").strip()
+    return doc.splitlines()[0] if doc else ""
+
+
+def shipped_scenarios() -> list[Path]:
+    """The scenario files beside the installed package (a source checkout), then those under ./scenarios."""
+    folders = [Path(__file__).resolve().parents[1] / "scenarios", Path.cwd() / "scenarios"]
+    seen, out = set(), []
+    for folder in folders:
+        for path in sorted(folder.glob("*.toml")) if folder.is_dir() else []:
+            if path.resolve() not in seen:
+                seen.add(path.resolve())
+                out.append(path)
+    return out
+
+
+def _list(what: str) -> int:
+    """``swarmactors list behaviors|checks|families|scenarios``: names and one-line descriptions."""
+    from swarmactors.plugins import CHECKS, PluginError, available
+
+    rows: list[tuple[str, str]] = []
+    if what == "scenarios":
+        for path in shipped_scenarios():
+            lines = path.read_text(errors="replace").splitlines()
+            comment = next((ln.lstrip("# ").strip() for ln in lines if ln.startswith("#")), "")
+            rows.append((_shown_path(path), comment))
+    else:
+        group = {"behaviors": BEHAVIORS, "checks": CHECKS, "families": "swarmactors.families"}[what]
+        for name in sorted(available(group)):
+            try:
+                obj = resolve(group, name)
+            except PluginError as exc:
+                rows.append((name, f"(cannot load: {exc})"))
+                continue
+            if what == "families":
+                obj = sys.modules[obj.suite.__module__.rpartition(".")[0]]  # the family's package docstring
+            rows.append((name, _first_line(obj)))
+    width = max((len(n) for n, _ in rows), default=0)
+    for name, text in rows:
+        print(f"{name:<{width}}  {text}".rstrip())
+    return EXIT_OK
+
+
+def _shown_path(path: Path) -> str:
+    try:
+        return str(path.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
+
+
 def _robots(args) -> int:
     if args.count is not None and args.count < 1:
         raise UsageError(f"--count {args.count}: must be >= 1")
+    if args.wait <= 0:
+        raise UsageError(f"--wait {args.wait}: must be > 0 seconds")
     Keys(args.run_id)
     if args.secure:
-        _wait_for(args.secure / "host.credential", seconds=60)
+        _wait_for(args.secure / "host.credential", seconds=args.wait)
     extra = Security("host", args.secure).zenoh_settings(args.run_id) if args.secure else {}
     endpoints = Endpoints(mode=args.mode, connect=args.connect, extra=extra)
     if not args.secure and not os.environ.get(RUN_SECRET_ENV):
         print(f"warning: no --secure and no {RUN_SECRET_ENV}: the join reply and so this host's downlink are not "
               f"authenticated; anyone who reaches {', '.join(args.connect)} can feed it false inputs "
               "(see docs/security.md)", file=sys.stderr)
-    asyncio.run(serve_host(endpoints, args.run_id, args.count, args.allow))
+    say = (lambda _line: None) if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
+    try:
+        asyncio.run(serve_host(endpoints, args.run_id, args.count, args.allow, wait=args.wait, say=say))
+    except HostError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_RUNTIME
     return EXIT_OK
 
 

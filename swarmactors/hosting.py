@@ -8,13 +8,22 @@ imports only the robot side: the Behavior API, the host, the transport and the b
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import gc
 import logging
-from collections.abc import Collection
+import time
+from collections.abc import Callable, Collection
 from contextlib import contextmanager
 
 from swarmactors.host import RobotHost
 from transport import Endpoints, Keys, Link
+
+log = logging.getLogger(__name__)
+PROGRESS_EVERY_S = 10.0  # a host's progress line, at most this often
+
+
+class HostError(RuntimeError):
+    """A host that could not reach or join its world (exit 3, one line naming the endpoint)."""
 
 
 def host_process(endpoint: str, run_id: str, count: int | None, allow: tuple[str, ...] = ()) -> None:
@@ -26,15 +35,110 @@ def host_process(endpoint: str, run_id: str, count: int | None, allow: tuple[str
         pass
 
 
-async def serve_host(endpoints: Endpoints, run_id: str, count: int | None, allow: Collection[str] = ()) -> None:
+async def serve_host(endpoints: Endpoints, run_id: str, count: int | None, allow: Collection[str] = (),
+                     wait: float = 60.0, say: Callable[[str], None] | None = None) -> None:
     """Join run ``run_id`` through ``endpoints`` and run robots until the world stops.
 
     ``allow``: modules whose Behavior subclasses the host may build, beside the registered entry points.
+    A host may start before its world: it retries with backoff for ``wait`` seconds, then raises HostError.
+    ``say`` gets one line at a time: joined, the robots claimed, progress every PROGRESS_EVERY_S, a summary.
     """
-    with Link(endpoints) as link, quiet_gc():
+    say = say or (lambda _line: None)
+    where = ", ".join(endpoints.connect) or "the local session"
+    deadline = time.monotonic() + wait
+    link = await open_link(endpoints, deadline, where)
+    with link, quiet_gc():
         host = RobotHost(link, Keys(run_id), count, allow)
-        await host.join()
-        await host.run()
+        try:
+            await host.join(timeout=max(0.0, deadline - time.monotonic()))
+        except RuntimeError as exc:
+            raise HostError(join_failure(str(exc), run_id, where, wait)) from None
+        ids = sorted(host.robots)
+        info = host.run_info
+        if not ids:
+            say(f"no robot left: the world at {where} (run {run_id!r}) has given all its robots to other hosts; "
+                "this host has nothing to run and stays until the run ends")
+        else:
+            say(f"joined run {run_id!r} at {where} as host {host.name} ({info.clock}, {info.ticks} ticks): "
+                f"robots {id_ranges(ids)} ({len(ids)})")
+        started = time.monotonic()
+        reporter = asyncio.create_task(_report_progress(host, say))
+        try:
+            await host.run()
+        finally:
+            reporter.cancel()
+        say(host_summary(host, time.monotonic() - started))
+
+
+async def open_link(endpoints: Endpoints, deadline: float, where: str) -> Link:
+    """A Zenoh session to ``endpoints``, retried with backoff (1, 2, 4, ... 8 s a try) until ``deadline``."""
+    step = 1.0
+    while True:
+        left = deadline - time.monotonic()
+        try_s = max(0.5, min(step, left))
+        extra = dict(endpoints.extra)
+        if endpoints.connect:
+            extra["connect/timeout_ms"] = int(try_s * 1000)
+        try:
+            return Link(dataclasses.replace(endpoints, extra=extra))
+        except Exception as exc:  # Zenoh's "unable to connect": the world may not be up yet
+            if time.monotonic() + 0.1 >= deadline:
+                raise HostError(f"no world answered at {where} ({str(exc).split(' at /')[0].strip()})") from None
+            log.info("no world at %s yet (%s); retrying", where, exc)
+        await asyncio.sleep(min(0.5, max(0.0, deadline - time.monotonic())))
+        step = min(step * 2, 8.0)
+
+
+def join_failure(error: str, run_id: str, where: str, wait: float) -> str:
+    """The one line a host prints when the world would not give it robots."""
+    if "has finished" in error or "in the run)" in error:  # world.py's refusals: run over, or world.max_robots
+        return (f"no robot left for this host: the world at {where} (run {run_id!r}) gave every robot to other "
+                f"hosts ({error.rpartition(': ')[2]})")
+    if "no reply" in error:
+        return (f"no world answered the join of run {run_id!r} at {where} within {wait:g} s "
+                "(is --run-id the world's? see --wait)")
+    return f"could not join run {run_id!r} at {where}: {error}"
+
+
+def id_ranges(ids: list[int]) -> str:
+    """Sorted robot ids as ranges: ``0-9, 12, 14-15``."""
+    parts: list[str] = []
+    start = prev = None
+    for i in ids:
+        if prev is not None and i == prev + 1:
+            prev = i
+            continue
+        if start is not None:
+            parts.append(str(start) if start == prev else f"{start}-{prev}")
+        start = prev = i
+    if start is not None:
+        parts.append(str(start) if start == prev else f"{start}-{prev}")
+    return ", ".join(parts) or "none"
+
+
+def _frames_sent(host: RobotHost) -> int:
+    return sum(r.ctx._seq for r in host.robots.values())  # a robot's frame sequence number counts its frames
+
+
+async def _report_progress(host: RobotHost, say: Callable[[str], None]) -> None:
+    total = host.run_info.ticks if host.run_info else 0
+    while True:
+        await asyncio.sleep(PROGRESS_EVERY_S)
+        alive = sum(r.alive for r in host.robots.values())
+        say(f"host {host.name}: tick {max(host.tick, 0)}/{total}, frames sent {_frames_sent(host)}, "
+            f"{alive}/{len(host.robots)} robots alive")
+
+
+def host_summary(host: RobotHost, wall_s: float) -> str:
+    """One line at the end of a host: ticks, frames, robots alive, crashed robots with their error."""
+    crashed = {rid: r.error for rid, r in sorted(host.robots.items()) if r.error}
+    alive = sum(r.alive for r in host.robots.values())
+    line = (f"host {host.name} done: {max(host.tick, 0) + 1 if host.robots else 0} ticks in {wall_s:.1f} s, "
+            f"frames sent {_frames_sent(host)}, {len(host.robots)} robots ({alive} alive)")
+    if crashed:
+        first = "; ".join(f"{rid}: {err.splitlines()[0]}" for rid, err in list(crashed.items())[:3])
+        line += f", {len(crashed)} crashed ({first}{'; ...' if len(crashed) > 3 else ''})"
+    return line
 
 
 @contextmanager

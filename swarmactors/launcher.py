@@ -10,6 +10,7 @@ that connect to the world's private Unix socket (``run(tcp=True)``: a loopback T
 from __future__ import annotations
 
 import asyncio
+import itertools
 import json
 import logging
 import multiprocessing
@@ -18,6 +19,7 @@ import re
 import shutil
 import signal
 import tempfile
+import time
 import uuid
 from collections.abc import Callable, Collection
 from contextlib import contextmanager
@@ -53,6 +55,33 @@ def private_endpoints(tcp: bool = False):
         yield Endpoints(mode="peer", listen=[f"unixsock-stream/{folder}/world.sock"])
     finally:
         shutil.rmtree(folder, ignore_errors=True)
+
+
+def run_dir(name: str, seed: int, base: Path = Path("out")) -> Path:
+    """A new directory for one run, ``out/<name>/<UTC time>-s<seed>``, with ``out/<name>/latest`` pointing to it.
+
+    Runs never overwrite each other; two in the same second get ``-2``, ``-3``... The ``latest`` link is
+    replaced atomically (a new link renamed over the old one).
+    """
+    parent = base / name
+    parent.mkdir(parents=True, exist_ok=True)
+    stem = f"{time.strftime('%Y%m%dT%H%M%SZ', time.gmtime())}-s{seed}"
+    for n in itertools.count(1):
+        folder = parent / (stem if n == 1 else f"{stem}-{n}")
+        try:
+            folder.mkdir()
+            break
+        except FileExistsError:
+            continue
+    link = parent / "latest"
+    tmp = parent / f".latest-{os.getpid()}"
+    try:
+        tmp.unlink(missing_ok=True)
+        tmp.symlink_to(folder.name, target_is_directory=True)
+        os.replace(tmp, link)
+    except OSError as exc:  # e.g. a file system without symbolic links: the run goes on
+        log.warning("could not point %s to %s: %s", link, folder.name, exc)
+    return folder
 
 
 def new_run_id(name: str) -> str:
@@ -259,6 +288,50 @@ def metrics(sc: dict, reports: dict[int, dict]) -> dict:
     return out
 
 
+def validate_run(sc: dict, source: str) -> None:
+    """Refuse at load what would only fail after the run (ScenarioError naming the file and key, exit 2).
+
+    * every behaviour names a ``Behavior`` subclass (not a function, not another class);
+    * a check of a protocol family (``flooding.reach``) needs a behaviour reporting under that family's name;
+    * a check that declares the clocks it holds under (``fn.clocks``) is refused under another clock, naming
+      the check to use instead when it declares one (``fn.instead = {"realtime": "flooding.component"}``).
+    """
+    from swarmactors.plugins import CHECKS, PluginError, RefusedBehavior, available, resolve, resolve_behavior
+    from swarmactors.scenario import ScenarioError
+
+    allow = allowed_modules(sc)
+    reported, packages = set(), set()
+    for g, group in enumerate(sc.get("robots", [])):
+        for b, spec in enumerate(group.get("behaviors", [])):
+            try:
+                cls = resolve_behavior(spec["use"], allow)
+            except RefusedBehavior as exc:
+                raise ScenarioError(source, f"robots[{g}].behaviors[{b}].use",
+                                    str(exc).removeprefix("refused behaviour ")) from None
+            reported.add(spec.get("as") or spec["use"])
+            packages.add(cls.__module__.rpartition(".")[0])
+    families = available("swarmactors.families")
+    clock = sc["run"]["clock"]
+    for i, check in enumerate(sc.get("checks", [])):
+        name = check["use"]
+        try:
+            fn = resolve(CHECKS, name)
+        except PluginError:
+            continue  # the scenario's own validation names it
+        family = name.partition(".")[0] if ":" not in name else None
+        # a family's check reads the reports under the family's name, or of a behaviour from its own package
+        if family in families and family not in reported and fn.__module__.rpartition(".")[0] not in packages:
+            have = ", ".join(sorted(reported)) or "none"
+            raise ScenarioError(source, f"checks[{i}].use", f"{name!r} judges the {family!r} behaviour, which no "
+                                f"robot runs in this scenario (behaviours reporting: {have})")
+        clocks = getattr(fn, "clocks", None)
+        if clocks and clock not in clocks:
+            instead = (getattr(fn, "instead", None) or {}).get(clock)
+            hint = f"; use {instead!r} instead" if instead else ""
+            raise ScenarioError(source, f"checks[{i}].use", f"{name!r} holds only under the "
+                                f"{' or '.join(clocks)} clock, and this run's clock is {clock}{hint}")
+
+
 def resolve_run(scenario, processes: int | None = None, overrides: list[str] = (),
                 settings: dict | None = None) -> dict:
     """The resolved scenario of a run: a TOML path, a dict as parsed from TOML or a ``swarmactors.Scenario``.
@@ -279,14 +352,16 @@ def resolve_run(scenario, processes: int | None = None, overrides: list[str] = (
         set_value(raw, key.replace("__", "."), value, source)
     if processes is not None:
         set_value(raw, "run.processes", processes, source)
-    return resolve_scenario(raw, source, list(overrides))
+    sc = resolve_scenario(raw, source, list(overrides))
+    validate_run(sc, source)
+    return sc
 
 
 async def arun(scenario, *, out: str | Path | None = None, processes: int | None = None,
                overrides: list[str] = (), tcp: bool = False, **settings) -> Result:
     """``run`` as a coroutine, for code that already runs an asyncio loop (a notebook)."""
     sc = resolve_run(scenario, processes, overrides, settings)
-    out_dir = Path(out) if out is not None else Path("out") / sc["run"]["name"]
+    out_dir = Path(out) if out is not None else run_dir(sc["run"]["name"], sc["run"]["seed"])
     with private_endpoints(tcp) as endpoints:
         return await run_world(sc, out_dir, endpoints, new_run_id(sc["run"]["name"]), processes=sc["run"]["processes"])
 
@@ -297,7 +372,8 @@ def run(scenario, *, out: str | Path | None = None, processes: int | None = None
 
     ``settings`` are overrides written ``section__key=value`` (``radio__loss=0.1``,
     ``run__seed=3``); ``overrides`` takes ``"section.key=value"`` strings as on
-    the command line. Output goes to ``out`` (default ``out/<run.name>``). The world listens on a private Unix
+    the command line. Output goes to ``out`` as given, else to a new ``out/<run.name>/<UTC time>-s<seed>``
+    (``out/<run.name>/latest`` points to it; ``launcher.run_dir``). The world listens on a private Unix
     socket (``tcp=True``: a loopback TCP port).
     """
     return asyncio.run(arun(scenario, out=out, processes=processes, overrides=overrides, tcp=tcp, **settings))
