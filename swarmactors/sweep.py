@@ -382,7 +382,10 @@ def run_sweep(sw: Sweep, workers: int = 1, keep: str = "failed",
     trials = sw.all_trials()
     pending = [t for t in trials if not table.done(t)]
     skipped = len(trials) - len(pending)
-    counts = {"errors": 0, "failed": 0}
+    # a resumed sweep counts the errors and failed checks of the trials already in trials.csv too
+    before = [table.rows[t.key(sw.keys)] for t in trials if table.done(t)]
+    counts = {"errors": sum(bool(r.get("error")) for r in before),
+              "failed": sum(r.get("passed") == "false" for r in before)}
     done = skipped
     if progress:
         progress(done, len(trials), counts)
