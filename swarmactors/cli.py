@@ -339,19 +339,32 @@ def _world_endpoints(args, run_id: str) -> Endpoints:
 
 def _check(args, err: Console) -> int:
     """``swarmactors check``: run suites, print the report, write JSON/JUnit; exit 0 only if all passed."""
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
     from rich.table import Table
 
     from swarmactors import conformance as cf
+    from swarmactors.progress import check_counts, check_rows
 
     if args.jobs < 1:
         raise UsageError(f"--jobs {args.jobs}: must be >= 1")
+    for option, path in (("--json", args.json), ("--junit", args.junit)):
+        if path is not None and path.is_dir():
+            raise UsageError(f"{option} {path}: is a directory (give a file name)")
     try:
-        total = len([c for _, c in cf.select(args.family, args.mode)
-                     if args.clock is None or c.scenario.get("run", {}).get("clock", "lockstep") == args.clock])
+        cases = [c for _, c in cf.select(args.family, args.mode)
+                 if args.clock is None or c.scenario.get("run", {}).get("clock", "lockstep") == args.clock]
+        asked = {c.name: c.checks for c in cases}
         with Progress(TextColumn("[bold]conformance"), BarColumn(), MofNCompleteColumn(),
-                      TextColumn("{task.description}"), TimeElapsedColumn(), console=err) as bar:
-            task = bar.add_task("", total=total)
+                      TextColumn("{task.description}"), TimeElapsedColumn(), TextColumn("ETA"),
+                      TimeRemainingColumn(), console=err) as bar:
+            task = bar.add_task("", total=len(cases))
 
             def tick(r) -> None:
                 bar.update(task, advance=1, description=f"{r.case} {'ok' if r.passed else 'FAILED'}")
@@ -363,15 +376,24 @@ def _check(args, err: Console) -> int:
         return EXIT_INPUT
     behavior = args.behavior or "built-in"
     table = Table(title=f"conformance of {behavior} ({args.mode})")
-    for col in ("case", "result", "checks (value / bound)", "seed", "first tick"):
-        table.add_column(col)
+    table.add_column("case", no_wrap=True)
+    table.add_column("result")
+    table.add_column("checks", no_wrap=True)
+    table.add_column("verdict (value, bound)")
+    table.add_column("seed")
+    table.add_column("first tick")
     for r in results:
-        shown = [o for o in r.outcomes if not o["passed"]] or r.outcomes
-        checks = "\n".join(f"{o['name']}: {o['value']} / {o['bound']}" for o in shown) or (r.error or "")
+        rows = check_rows(r.outcomes, asked.get(r.case, [])) or [("", r.error or "")]
         mark = "[green]passed[/]" if r.passed else "[red]FAILED[/]"
-        table.add_row(f"{r.family}/{r.case}" if not r.case.startswith(r.family) else r.case, mark, checks,
-                      str(r.seed), "" if r.first_tick is None else str(r.first_tick))
-    err.print(table)
+        name = f"{r.family}/{r.case}" if not r.case.startswith(r.family) else r.case
+        for k, (check, verdict) in enumerate(rows):
+            first = "" if r.first_tick is None else str(r.first_tick)
+            table.add_row(name if k == 0 else "", mark if k == 0 else "", check.removeprefix("check "), verdict,
+                          str(r.seed) if k == 0 else "", first if k == 0 else "",
+                          end_section=k == len(rows) - 1)
+    # not on a terminal (CI logs, a pipe): no 80-column wrapping of names
+    out = err if err.is_terminal else Console(stderr=True, no_color=True, width=400, soft_wrap=True)
+    out.print(table)
     for r in results:
         if not r.passed:
             for o in r.outcomes:
@@ -380,14 +402,15 @@ def _check(args, err: Console) -> int:
             if r.error:
                 print(f"FAILED {r.case}: {r.error}", file=sys.stderr)
             if r.reproduce:
-                print(f"  reproduce (seed {r.seed}, first tick {r.first_tick}): swarmactors run {r.reproduce}",
+                print(f"  reproduce (seed {r.seed}, first tick {r.first_tick}): {r.reproduce_command}",
                       file=sys.stderr)
     if args.json:
         args.json.write_text(json.dumps([cf.as_dict(r) for r in results], indent=1))
     if args.junit:
         args.junit.write_text(cf.junit_xml(results, behavior))
     failed = sum(not r.passed for r in results)
-    print(f"{len(results) - failed} passed, {failed} failed", file=sys.stderr)
+    judged = check_counts([o for r in results for o in r.outcomes])
+    print(f"{len(results) - failed} passed, {failed} failed (checks: {judged})", file=sys.stderr)
     return EXIT_OK if failed == 0 else EXIT_CHECK
 
 

@@ -65,7 +65,8 @@ class CaseResult:
     outcomes: list[dict] = field(default_factory=list)
     seed: int | None = None
     trace_hash: str | None = None
-    reproduce: str | None = None  # scenario file that reproduces a failure
+    reproduce: str | None = None  # scenario file that reproduces a failure (absolute path)
+    reproduce_command: str | None = None  # the shell command that reproduces it, from any directory
     first_tick: int | None = None
     error: str | None = None
     wall_s: float = 0.0
@@ -214,8 +215,35 @@ def run_case(family: Family, case: Case, behavior: str | None, out_dir: Path, cl
         path = case_dir / "reproduce.toml"
         path.write_text(f"# swarmactors check: case {case.name} failed; `swarmactors run {path.name}` "
                         f"reproduces it\n" + tomli_w.dumps(_tomlable(to_raw(sc))))
-        res.reproduce = str(path)
+        res.reproduce = str(path.resolve())
+        res.reproduce_command = reproduce_command(res.reproduce, behavior)
     return res
+
+
+def reproduce_command(scenario: str, behavior: str | None) -> str:
+    """``swarmactors run FILE``, with ``PYTHONPATH`` naming the folder of a user's ``module:Class`` if needed.
+
+    The command then works from any directory: the file is absolute, and the module is found where it was.
+    """
+    import importlib.util
+    import shlex
+
+    command = f"swarmactors run {shlex.quote(scenario)}"
+    if behavior is None or ":" not in behavior or behavior in available(BEHAVIORS).values():
+        return command
+    module = behavior.partition(":")[0]
+    try:
+        spec = importlib.util.find_spec(module)
+    except (ImportError, ValueError):
+        return command
+    if spec is None or not spec.origin or spec.origin in ("built-in", "frozen"):
+        return command
+    root = Path(spec.origin).resolve().parent
+    for _ in range(module.count(".") + (1 if Path(spec.origin).name == "__init__.py" else 0)):
+        root = root.parent
+    if "site-packages" in root.parts:  # installed: importable from anywhere
+        return command
+    return f"PYTHONPATH={shlex.quote(str(root))} {command}"
 
 
 def first_difference(a: Path | None, b: Path | None) -> int | None:
@@ -271,7 +299,7 @@ def junit_xml(results: list[CaseResult], behavior: str) -> str:
             failed = [o for o in r.outcomes if not o["passed"]]
             msg = "; ".join(f"{o['name']}: value {o['value']} bound {o['bound']}" for o in failed)
             text = "\n".join(f"{o['name']}: {o['detail']}" for o in failed)
-            text += f"\nseed {r.seed}, first tick {r.first_tick}\nreproduce: swarmactors run {r.reproduce}"
+            text += f"\nseed {r.seed}, first tick {r.first_tick}\nreproduce: {r.reproduce_command}"
             ET.SubElement(tc, "failure", message=msg).text = text
     return ET.tostring(suite, encoding="unicode", xml_declaration=True)
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import sys
 import time
 
@@ -76,6 +77,8 @@ def summary_table(result: dict, out_dir) -> Table:
         t.add_row(name, ", ".join(f"{k} {fmt(v)}" for k, v in m.items()))
     for row in check_rows(result.get("checks", []), result["scenario"].get("checks", [])):
         t.add_row(*row)
+    if result.get("checks"):
+        t.add_row("checks", check_counts(result["checks"]))
     t.add_row("trace hash", result["trace_hash"])
     t.add_row("output", str(out_dir))
     return t
@@ -142,11 +145,26 @@ def status(o: dict) -> str:
     return "nothing to judge" if nothing_to_judge(o) else "passed"
 
 
+_NONE_OF_NONE = re.compile(r"(?<![\d.])0 of 0(?![\d.])")
+
+
 def nothing_to_judge(o: dict) -> bool:
-    """A passed outcome that measured nothing: no value and no bound, or "0 of 0" (an empty set to judge)."""
+    """A passed outcome that measured nothing: no value and no bound, or a detail saying "0 of 0" (an empty set).
+
+    It does not fail the run; the summary counts it apart from the passed checks.
+    """
+    if not o.get("passed"):
+        return False
     if o.get("value") is None and o.get("bound") is None:
         return True
-    return o.get("value") == 0 and o.get("bound") == 0 and " 0 of 0 " in f" {o.get('detail', '')} "
+    return bool(_NONE_OF_NONE.search(str(o.get("detail") or "")))
+
+
+def check_counts(outcomes: list[dict]) -> str:
+    """``3 passed, 1 nothing to judge, 0 failed``: every outcome counted once, by its status."""
+    states = [status(o) for o in outcomes]
+    return (f"{states.count('passed')} passed, {states.count('nothing to judge')} nothing to judge, "
+            f"{states.count('FAILED')} failed")
 
 
 _MARK = {"passed": "[green]passed[/]", "FAILED": "[red]FAILED[/]", "nothing to judge": "[yellow]nothing to judge[/]"}
