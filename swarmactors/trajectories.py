@@ -1,6 +1,7 @@
 """``trajectories.png``: where every robot went during a run, from the trace.
 
-Up to ``PATHS_MAX`` robots, each robot's path is drawn coloured by time (one ``LineCollection`` for the whole
+Up to ``PATHS_MAX`` robots, each robot's path is drawn coloured by time, or by a status field's value at each
+tick (``field``: categories with a legend, numbers on a colour bar) (one ``LineCollection`` for the whole
 swarm, ticks subsampled so that at most ``SEGMENTS_MAX`` segments are drawn), its start as a small dot and its
 end as a disc. Above that, paths would be an unreadable tangle: a density heat map (how many robot-ticks fell in
 each cell, log scale) is drawn instead. The world's bounds, when the scenario has them, frame the picture, so
@@ -42,9 +43,23 @@ def tracks(records: list[dict]) -> tuple[np.ndarray, dict[int, np.ndarray]]:
     return ticks, {rid: xy[col[rid]] for rid in ids}
 
 
+def status_track(records: list[dict], ids: list[int], field: str) -> dict[int, list]:
+    """Per robot, the value of status ``field`` at each record (the last value set so far; None before any)."""
+    out = {rid: [None] * len(records) for rid in ids}
+    cur: dict[int, object] = {}
+    for k, rec in enumerate(records):
+        for rid, changes in rec.get("status", {}).items():
+            if field in changes:
+                cur[int(rid)] = changes[field]
+        for rid, v in cur.items():
+            if rid in out:
+                out[rid][k] = v
+    return out
+
+
 def plot_trajectories(records: list[dict], path: Path, title: str = "", bounds: list | None = None,
-                      density: bool | None = None) -> Path:
-    """Write ``path``: robots' paths coloured by tick, or a density heat map for large swarms.
+                      density: bool | None = None, field: str | None = None) -> Path:
+    """Write ``path``: robots' paths coloured by tick (or by status ``field``), or a density heat map.
 
     Args:
         records: the trace's tick records.
@@ -52,6 +67,7 @@ def plot_trajectories(records: list[dict], path: Path, title: str = "", bounds: 
         title: the picture's title.
         bounds: the world's ``[[xmin, ymin], [xmax, ymax]]`` (None: fit the data).
         density: force the heat map (True) or the paths (False); default: heat map above ``PATHS_MAX`` robots.
+        field: colour each path segment by this status field's value at its end tick (None: by tick).
 
     Returns:
         ``path``.
@@ -75,20 +91,29 @@ def plot_trajectories(records: list[dict], path: Path, title: str = "", bounds: 
         keep = np.arange(0, len(ticks), stride)
         if len(ticks) and keep[-1] != len(ticks) - 1:
             keep = np.append(keep, len(ticks) - 1)
-        segs, times = [], []
-        for xy in by_robot.values():
+        segs, times, values = [], [], []
+        status = status_track(records, list(by_robot), field) if field else {}
+        for rid, xy in by_robot.items():
             p = xy[keep]
             s = np.stack([p[:-1], p[1:]], axis=1)
             ok = ~np.isnan(s).any(axis=(1, 2))
             segs.append(s[ok])
             times.append(ticks[keep][1:][ok])
+            if field:
+                vals = [status[rid][k] for k in keep[1:]]
+                values += [v for v, good in zip(vals, ok, strict=True) if good]
         t0, t1 = (ticks[0], ticks[-1]) if len(ticks) else (0, 1)
+        handles = []
         if segs and sum(len(s) for s in segs):
-            lc = LineCollection(np.concatenate(segs), array=np.concatenate(times), cmap="viridis",
-                                linewidths=1.0 if n <= 50 else 0.5, zorder=2)
-            lc.set_clim(t0, max(t1, t0 + 1))
-            ax.add_collection(lc)
-            fig.colorbar(lc, ax=ax, label="tick")
+            lw = 1.0 if n <= 50 else 0.5
+            if field:
+                handles = _by_field(fig, ax, np.concatenate(segs), values, field, lw)
+            else:
+                lc = LineCollection(np.concatenate(segs), array=np.concatenate(times), cmap="viridis",
+                                    linewidths=lw, zorder=2)
+                lc.set_clim(t0, max(t1, t0 + 1))
+                ax.add_collection(lc)
+                fig.colorbar(lc, ax=ax, label="tick")
         starts = np.array([xy[~np.isnan(xy).any(axis=1)][0] for xy in by_robot.values()
                            if (~np.isnan(xy).any(axis=1)).any()])
         ends = np.array([xy[~np.isnan(xy).any(axis=1)][-1] for xy in by_robot.values()
@@ -98,8 +123,10 @@ def plot_trajectories(records: list[dict], path: Path, title: str = "", bounds: 
             ax.scatter(starts[:, 0], starts[:, 1], s=size / 3, c="0.5", zorder=3, label="start")
             ax.scatter(ends[:, 0], ends[:, 1], s=size, c="white", edgecolors="k", linewidths=0.5, zorder=4,
                        label="end (or failure)")
-            ax.legend(loc="best", fontsize=8, framealpha=0.7)
-        what = f"paths of {n} robots over {len(ticks)} ticks" + (f" (every {stride} ticks)" if stride > 1 else "")
+            ax.legend(handles=[*handles, *ax.get_legend_handles_labels()[0]], loc="best", fontsize=8, framealpha=0.7,
+                      title=field if handles else None)
+        what = f"paths of {n} robots over {len(ticks)} ticks" + (f" by {field}" if field else "")
+        what += f" (every {stride} ticks)" if stride > 1 else ""
     if bounds and _extent(allxy, bounds)[0] is not None and (hi - lo).max() >= 0.9 * _size(bounds):
         ax.add_patch(plt.Rectangle(tuple(bounds[0][:2]), bounds[1][0] - bounds[0][0], bounds[1][1] - bounds[0][1],
                                    fill=False, ec="0.3", lw=1, ls="--", zorder=1))
@@ -116,10 +143,36 @@ def plot_trajectories(records: list[dict], path: Path, title: str = "", bounds: 
     return path
 
 
-def plot_result_trajectories(result, path: Path, density: bool | None = None) -> Path:
+def plot_result_trajectories(result, path: Path, density: bool | None = None, field: str | None = None) -> Path:
     """``plot_trajectories`` for a finished run (``swarmactors.result.Result`` with a trace)."""
     sc = result["scenario"]
-    return plot_trajectories(result.trace, path, sc["run"]["name"], sc.get("world", {}).get("bounds"), density)
+    return plot_trajectories(result.trace, path, sc["run"]["name"], sc.get("world", {}).get("bounds"), density,
+                             field)
+
+
+def _by_field(fig, ax, segs: np.ndarray, values: list, field: str, lw: float) -> list:
+    """Draw path segments coloured by a status field's values; return the legend handles (categories)."""
+    from matplotlib.lines import Line2D
+
+    from swarmactors.plots import categories, category_cmap, category_codes, is_categorical
+
+    known = [v for v in values if v is not None]
+    if known and is_categorical(known):
+        cats = categories(known)
+        cmap = category_cmap(cats)
+        codes = category_codes(cats, values)
+        colours = [cmap(c) if v is not None else (0.7, 0.7, 0.7, 1.0) for c, v in zip(codes, values, strict=True)]
+        ax.add_collection(LineCollection(segs, colors=colours, linewidths=lw, zorder=2))
+        handles = [Line2D([], [], color=cmap(i), lw=2, label=c) for i, c in enumerate(cats)]
+        if len(known) < len(values):
+            handles.append(Line2D([], [], color=(0.7, 0.7, 0.7, 1.0), lw=2, label=f"no {field}"))
+        return handles
+    arr = np.array([float(v) if v is not None else np.nan for v in values])
+    cmap = plt.get_cmap("viridis").with_extremes(bad="0.7")  # no value yet: grey
+    lc = LineCollection(segs, array=arr, cmap=cmap, linewidths=lw, zorder=2)
+    ax.add_collection(lc)
+    fig.colorbar(lc, ax=ax, label=field)
+    return []
 
 
 def _size(bounds: list) -> float:

@@ -163,3 +163,31 @@ def test_animation_of_a_numeric_field_keeps_one_scale_and_many_robots_have_no_id
     draw_scene(ax, scenes[1], style)
     assert len(fig.axes) == 2  # still one colour bar
     plt.close(fig)
+
+
+def test_trajectories_by_a_status_field(tmp_path, monkeypatch):
+    from swarmactors.trajectories import status_track
+
+    records = _records(4, 12)
+    for rec in records:
+        if rec["t"] % 4 == 1:  # robot i changes role at ticks 1, 5, 9; robot 3 never says
+            rec["status"] = {i: {"role": ("relay", "leader", "explorer")[(i + rec["t"]) % 3]} for i in range(3)}
+    track = status_track(records, [0, 1, 2, 3], "role")
+    assert track[1][0] is None and track[1][1] == track[1][4] == "explorer" and track[3] == [None] * 12
+    drawn = []
+    real = plot_trajectories.__globals__["LineCollection"]
+    monkeypatch.setattr("swarmactors.trajectories.LineCollection",
+                        lambda segs, **k: drawn.append((len(segs), k)) or real(segs, **k))
+    path = plot_trajectories(records, tmp_path / "t.png", "x", field="role")
+    assert mpimg.imread(path).ndim == 3
+    (count, kw), = drawn
+    colours = [tuple(c) for c in kw["colors"]]
+    assert count == len(colours) and colours.count((0.7, 0.7, 0.7, 1.0)) == 11  # robot 3 has no role: grey
+    assert len(set(colours)) == 4  # three roles and grey
+    for rec in records:
+        if rec["t"] % 4 == 1:
+            rec["status"] = {i: {"hop": i * rec["t"]} for i in range(4 if rec["t"] >= 5 else 3)}
+    drawn.clear()
+    plot_trajectories(records, tmp_path / "n.png", field="hop")
+    (count, kw), = drawn
+    assert np.isnan(kw["array"]).sum() == 4 and np.nanmax(kw["array"]) == 27  # robot 3 before tick 5: grey
