@@ -199,6 +199,12 @@ class Result:
         g.add_edges_from((ids[a], ids[b]) for a, b in sorted(edges))
         return g
 
+    def final_graph(self, directed: bool = False) -> nx.Graph:
+        """The true radio graph at the last tick of the trace (``graph_at`` of that tick)."""
+        if not self.trace:
+            raise KeyError("the trace has no tick")
+        return self.graph_at(self.trace[-1]["t"], directed)
+
     def poses(self):
         """Per-tick per-robot positions and status fields as a pandas DataFrame (needs pandas; swarmactors.export)."""
         from swarmactors.export import poses_frame
