@@ -1,0 +1,142 @@
+"""Pure update rules of the three λ2 estimators (Panerati et al., seed 003, Sec. II-B). Robot side, no I/O.
+
+Notation: x_i is robot i's entry of the iterated vector, N_i the neighbours whose values it uses this
+iteration, (Lx)_i = |N_i|·x_i − Σ_{j∈N_i} x_j the robot's entry of the Laplacian product (the paper's
+x_k^{i+1} = L_kk·x_k^i − Σ_{j|L_kj=−1} x_j^i). Every function takes plain floats and lists so that the
+unit tests can compare it with the matrix form on small graphs.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+METHODS = ("pi1", "pi2", "wave")
+DROPS = ("drop", "reuse")
+
+
+# ------------------------------------------------------------------ shared
+def laplacian_row(x_i: float, values: Sequence[float]) -> float:
+    """(Lx)_i = d_i·x_i − Σ_j x_j over the neighbour values used (d_i = how many)."""
+    return len(values) * x_i - math.fsum(values)
+
+
+def ratio_estimate(x_i: float, lx_i: float) -> float | None:
+    """λ̂_i = (Lx)_i / x_i: exact for every robot once x is an eigenvector (authors' code); None at x_i = 0."""
+    if x_i == 0.0 or not math.isfinite(x_i):
+        return None
+    est = lx_i / x_i
+    return est if math.isfinite(est) else None
+
+
+def step_size(dmax: int) -> float:
+    """γ = 1/(2·d_max): λ_max ≤ 2·d_max, so I − γL has its spectrum in [0, 1] (a safe power iteration)."""
+    return 1.0 / (2.0 * max(dmax, 1))
+
+
+# ------------------------------------------------------------------ PI1 (Bertrand & Moonen [11])
+def pi1_phase(k: int, period: int, flood: int) -> str:
+    """Return what iteration k ≥ 1 does in PI1: "L", "G" or "GN".
+
+    "L": x ← Lx (deflates the constant vector), once every ``period`` iterations; "G": x ← (I − γL)x;
+    "GN": a G step, then the division by the beacon's norm of this period.
+    The beacon starts the flood at r = 1 and the others divide at r = flood + 1 (r = (k − 1) mod period).
+    """
+    r = (k - 1) % period
+    if r == 0:
+        return "L"
+    if r == flood + 1:
+        return "GN"
+    return "G"
+
+
+def pi1_step(x_i: float, lx_i: float, phase: str, gamma: float) -> float:
+    """One PI1 update: Lx in the "L" phase, x − γ·Lx otherwise (normalisation is a separate division)."""
+    return lx_i if phase == "L" else x_i - gamma * lx_i
+
+
+def beacon_norm(x_b: float, values: Sequence[float]) -> float:
+    """The beacon's norm estimate: the RMS of x over its closed neighbourhood (all it can see)."""
+    vals = [x_b, *values]
+    return math.sqrt(math.fsum(v * v for v in vals) / len(vals))
+
+
+# ------------------------------------------------------------------ PI2 (Di Lorenzo & Barbarossa [14])
+def pi2_phase(k: int, consensus: int) -> int:
+    """Position r of iteration k ≥ 1 in a PI2 round of 1 + ``consensus`` iterations: 0 is the power step."""
+    return (k - 1) % (consensus + 1)
+
+
+def consensus_step(a_i: float, values: Sequence[float], eps: float) -> float:
+    """Average consensus a ← (I − εL)a: a_i + ε·Σ_j (a_j − a_i) (the same eigenvectors as L)."""
+    return a_i - eps * laplacian_row(a_i, values)
+
+
+def consensus_eps(dmax: int) -> float:
+    """ε = 1/(d_max + 1): the max-degree weights, I − εL doubly stochastic with a non-negative diagonal."""
+    return 1.0 / (max(dmax, 1) + 1.0)
+
+
+def pi2_normalise(w_i: float, mean: float, meansq: float) -> float:
+    """x_i ← (w_i − mean(w)) / sqrt(mean(w²) − mean(w)²): deflation by 11ᵀ/K, then the RMS normalisation."""
+    var = meansq - mean * mean
+    centred = w_i - mean
+    return centred / math.sqrt(var) if var > 0.0 else centred
+
+
+# ------------------------------------------------------------------ Wave (Sahai et al. [17])
+def wave_step(s1: float, s2: float, lx1: float, k2: float) -> float:
+    """s_i(t) = 2·s_i(t−1) − s_i(t−2) − k²·(L s(t−1))_i (the degree term the printed update omits)."""
+    return 2.0 * s1 - s2 - k2 * lx1
+
+
+def wave_k2(dmax: int) -> float:
+    """k² = 1/d_max: half the local stability bound k² < 2/d_max (which implies k²·λ_max < 4)."""
+    return 1.0 / max(dmax, 1)
+
+
+def lowest_peak(signal: Sequence[float], rel: float = 0.01, pad: int = 4) -> float | None:
+    """ω of the lowest non-zero spectral peak of ``signal`` (rad per iteration), or None.
+
+    The least-squares line is removed (the λ = 0 mode is a constant, its drift under loss a slope), a
+    Blackman window applied (side lobes below −58 dB), the FFT (numpy.fft.rfft)
+    zero-padded to ≥ ``pad``·n points; the first local maximum of |X| above ``rel`` × the largest, beyond the
+    window's main lobe, is refined by a parabola through the log-magnitudes of it and its two neighbours.
+    """
+    s = np.asarray(signal, dtype=float)
+    n = len(s)
+    if n < 8 or not np.all(np.isfinite(s)):
+        return None
+    t = np.arange(n)
+    s = (s - np.polyval(np.polyfit(t, s, 1), t)) * np.blackman(n)
+    m = 1 << max(int(math.ceil(math.log2(pad * n))), 4)
+    mag = np.abs(np.fft.rfft(s, m))
+    lobe = int(math.ceil(3 * m / n))  # Blackman main lobe half-width, in padded bins
+    if len(mag) <= lobe + 2:
+        return None
+    top = mag[lobe:].max()
+    if top <= 0.0:
+        return None
+    for b in range(max(lobe, 1), len(mag) - 1):
+        if mag[b] >= rel * top and mag[b] >= mag[b - 1] and mag[b] > mag[b + 1]:
+            la, lb, lc = np.log(mag[b - 1:b + 2] + 1e-300)
+            den = la - 2 * lb + lc
+            off = 0.5 * (la - lc) / den if den < 0 else 0.0
+            return 2.0 * math.pi * (b + off) / m
+    return None
+
+
+def wave_estimate(signal: Sequence[float], k2: float) -> float | None:
+    """λ̂ = 2(1 − cos ω)/k² from the lowest non-zero peak ω of the robot's own signal."""
+    w = lowest_peak(signal)
+    return None if w is None else 2.0 * (1.0 - math.cos(w)) / k2
+
+
+# ------------------------------------------------------------------ error (the paper's e)
+def error_percent(estimate: float | None, truth: float) -> float:
+    """Return e = |λ̂2 − λ2| / (10⁻²·λ2), in percent; inf without an estimate."""
+    if estimate is None or truth <= 0.0:
+        return math.inf
+    return abs(estimate - truth) / (1e-2 * truth)

@@ -1,0 +1,182 @@
+"""The λ2 update rules below Zenoh: each pure function against the matrix form on small graphs (numpy)."""
+
+from __future__ import annotations
+
+import math
+
+import networkx as nx
+import numpy as np
+import pytest
+
+from protocols.lambda2 import rules
+
+GRAPHS = {
+    "path-5": nx.path_graph(5),
+    "ring-6": nx.cycle_graph(6),
+    "star-6": nx.star_graph(5),
+    "complete-5": nx.complete_graph(5),
+    "rgg-12": nx.random_geometric_graph(12, 0.5, seed=3),
+}
+
+
+def lap(g: nx.Graph) -> np.ndarray:
+    a = nx.to_numpy_array(g, nodelist=sorted(g))
+    return np.diag(a.sum(axis=1)) - a
+
+
+def rows(g: nx.Graph, x: np.ndarray) -> np.ndarray:
+    """(Lx)_i from each robot's own value and its neighbours' values, by the robot-side rule."""
+    return np.array([rules.laplacian_row(x[i], [x[j] for j in sorted(g[i])]) for i in sorted(g)])
+
+
+def true_l2(g: nx.Graph) -> float:
+    return float(np.linalg.eigvalsh(lap(g))[1])
+
+
+@pytest.mark.parametrize("name", sorted(GRAPHS))
+def test_laplacian_row_is_the_matrix_product(name):
+    g = GRAPHS[name]
+    x = np.random.default_rng(1).normal(size=len(g))
+    assert np.allclose(rows(g, x), lap(g) @ x)
+
+
+def test_ratio_estimate_is_exact_on_an_eigenvector_and_none_at_zero():
+    g = GRAPHS["path-5"]
+    w, v = np.linalg.eigh(lap(g))
+    f = v[:, 1]
+    lx = rows(g, f)
+    ests = [rules.ratio_estimate(f[i], lx[i]) for i in range(5)]
+    for i, e in enumerate(ests):
+        if abs(f[i]) > 1e-9:
+            assert e == pytest.approx(w[1], rel=1e-9)
+    assert rules.ratio_estimate(0.0, 1.0) is None
+
+
+@pytest.mark.parametrize("name", sorted(GRAPHS))
+def test_step_size_keeps_i_minus_gamma_l_in_zero_one(name):
+    g = GRAPHS[name]
+    gamma = rules.step_size(max(d for _, d in g.degree()))
+    ev = np.linalg.eigvalsh(np.eye(len(g)) - gamma * lap(g))
+    assert ev.min() >= -1e-12 and ev.max() <= 1 + 1e-12
+
+
+def test_pi1_phase_schedule():
+    ph = [rules.pi1_phase(k, 10, 3) for k in range(1, 22)]
+    assert ph[0] == "L" and ph[10] == "L" and ph[20] == "L"
+    assert ph[4] == "GN" and ph[14] == "GN"  # r = flood + 1 = 4
+    assert ph.count("G") == 21 - 3 - 2
+
+
+def test_pi1_step_is_l_or_i_minus_gamma_l():
+    g = GRAPHS["rgg-12"]
+    x = np.random.default_rng(2).normal(size=len(g))
+    lx = rows(g, x)
+    gamma = 0.1
+    assert np.allclose([rules.pi1_step(x[i], lx[i], "L", gamma) for i in range(len(g))], lap(g) @ x)
+    assert np.allclose([rules.pi1_step(x[i], lx[i], "G", gamma) for i in range(len(g))],
+                       (np.eye(len(g)) - gamma * lap(g)) @ x)
+
+
+def simulate_pi1(g: nx.Graph, iters: int, period: int = 100, flood: int = 3) -> list[float]:
+    """Every robot runs the PI1 rules synchronously without loss; the beacon (0) norm reaches all at once."""
+    n = len(g)
+    dmax = max(d for _, d in g.degree())
+    gamma = rules.step_size(dmax)
+    x = np.random.default_rng(5).uniform(size=n)
+    norm = 1.0
+    med = []
+    for k in range(1, iters + 1):
+        lx = rows(g, x)
+        med.append(float(np.median([e for i in range(n) if (e := rules.ratio_estimate(x[i], lx[i])) is not None])))
+        phase = rules.pi1_phase(k, period, flood)
+        if (k - 1) % period == 1:
+            norm = rules.beacon_norm(x[0], [x[j] for j in sorted(g[0])])
+        x = np.array([rules.pi1_step(x[i], lx[i], phase, gamma) for i in range(n)])
+        if phase == "GN":
+            x = x / norm
+    return med
+
+
+@pytest.mark.parametrize("name", ["path-5", "ring-6", "star-6", "rgg-12"])
+def test_pi1_rules_converge_to_lambda2(name):
+    g = GRAPHS[name]
+    med = simulate_pi1(g, 400)
+    assert med[-1] == pytest.approx(true_l2(g), rel=1e-2)
+
+
+def test_beacon_norm_is_the_rms_of_the_closed_neighbourhood():
+    assert rules.beacon_norm(3.0, [4.0]) == pytest.approx(math.sqrt(12.5))
+
+
+def test_consensus_step_is_i_minus_eps_l_and_keeps_the_mean():
+    g = GRAPHS["rgg-12"]
+    eps = rules.consensus_eps(max(d for _, d in g.degree()))
+    a = np.random.default_rng(3).normal(size=len(g))
+    new = np.array([rules.consensus_step(a[i], [a[j] for j in sorted(g[i])], eps) for i in sorted(g)])
+    assert np.allclose(new, (np.eye(len(g)) - eps * lap(g)) @ a)
+    assert new.mean() == pytest.approx(a.mean())
+    for _ in range(500):
+        new = np.array([rules.consensus_step(new[i], [new[j] for j in sorted(g[i])], eps) for i in sorted(g)])
+    comp = max(nx.connected_components(g), key=len)
+    vals = new[sorted(comp)]
+    assert vals.max() - vals.min() < 1e-6
+
+
+def test_pi2_phase_and_normalise():
+    assert [rules.pi2_phase(k, 3) for k in range(1, 9)] == [0, 1, 2, 3, 0, 1, 2, 3]
+    w = np.array([1.0, 2.0, 6.0])
+    x = np.array([rules.pi2_normalise(v, w.mean(), (w**2).mean()) for v in w])
+    assert x.mean() == pytest.approx(0.0) and (x**2).mean() == pytest.approx(1.0)
+    assert rules.pi2_normalise(2.0, 2.0, 4.0) == 0.0  # zero variance: centred, not divided
+
+
+def test_wave_step_is_the_matrix_recursion_with_the_degree_term():
+    g = GRAPHS["ring-6"]
+    rng = np.random.default_rng(4)
+    s1, s2 = rng.normal(size=6), rng.normal(size=6)
+    k2 = 0.3
+    got = [rules.wave_step(s1[i], s2[i], rows(g, s1)[i], k2) for i in range(6)]
+    assert np.allclose(got, 2 * s1 - s2 - k2 * lap(g) @ s1)
+
+
+def test_lowest_peak_finds_the_lower_of_two_tones_with_sub_bin_accuracy():
+    t = np.arange(400)
+    w1, w2 = 0.2371, 0.9
+    sig = 3.0 + 0.6 * np.cos(w1 * t + 0.3) + 1.0 * np.cos(w2 * t)
+    assert rules.lowest_peak(sig) == pytest.approx(w1, rel=2e-3)
+    assert rules.lowest_peak([1.0, 2.0]) is None
+    assert rules.lowest_peak([1.0] * 10 + [math.nan]) is None
+
+
+@pytest.mark.parametrize("name", ["path-5", "ring-6", "rgg-12"])
+def test_wave_rules_estimate_lambda2(name):
+    g = GRAPHS[name]
+    comp = g.subgraph(max(nx.connected_components(g), key=len))
+    g = nx.convert_node_labels_to_integers(comp, ordering="sorted")
+    n = len(g)
+    k2 = rules.wave_k2(max(d for _, d in g.degree()))
+    s = np.random.default_rng(6).uniform(size=n)
+    prev, sig = s.copy(), [s.copy()]
+    for _ in range(600):
+        new = np.array([rules.wave_step(s[i], prev[i], rows(g, s)[i], k2) for i in range(n)])
+        prev, s = s, new
+        sig.append(s)
+    sig = np.array(sig)
+    ests = [rules.wave_estimate(sig[:, i], k2) for i in range(n)]
+    assert float(np.median([e for e in ests if e is not None])) == pytest.approx(true_l2(g), rel=1e-2)
+
+
+def test_printed_wave_update_without_the_degree_term_is_unstable():
+    """The update as printed (+k²·Σ_j s_j, no degree term) grows without bound: the reason we add −k²·d_i·s_i."""
+    g = GRAPHS["ring-6"]
+    k2 = rules.wave_k2(2)
+    a = nx.to_numpy_array(g)
+    s = prev = np.random.default_rng(7).uniform(size=6)
+    for _ in range(200):
+        s, prev = 2 * s - prev + k2 * a @ s, s
+    assert np.abs(s).max() > 1e6
+
+
+def test_error_percent_is_the_papers_e():
+    assert rules.error_percent(1.01, 1.0) == pytest.approx(1.0)
+    assert rules.error_percent(None, 1.0) == math.inf
