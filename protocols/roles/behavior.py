@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from protocols.roles.aat import MODES, PROPOSED, Connections
-from protocols.roles.params import RoleParams
+from protocols.roles.params import RoleParams, is_point
 from protocols.roles.rules import (
     EXTEND,
     RETRACT,
@@ -54,11 +54,6 @@ HELP = "RS_HELP"  # a disconnected explorer asks a repeater / the base station f
 WHERE = "RS_WHERE"  # the answer: the child's id, role and position
 KINDS = (STATE, LL_INFO, CONNECT, DISCONNECT, REQUEST, ACK, NACK, TARGET, ARRIVED, HELP, WHERE)
 
-
-
-def _vec(v: Any) -> bool:
-    return (type(v) in (list, tuple) and len(v) == 2 and type(v[0]) in (int, float) and type(v[1]) in (int, float)
-            and math.isfinite(v[0]) and math.isfinite(v[1]))
 
 
 def _r(v: np.ndarray, digits: int = 6) -> list[float]:
@@ -260,7 +255,7 @@ class RoleSwitching(Behavior, _Timed):
         self.frame_cpu += time.perf_counter() - t0  # charged to the role at the next tick
 
     def _on_state(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (type(b) is dict and b.get("r") in ROLES and _vec(b.get("p")) and _vec(b.get("u"))
+        if not (type(b) is dict and b.get("r") in ROLES and is_point(b.get("p")) and is_point(b.get("u"))
                 and type(b.get("n")) is int and type(b.get("e")) is int):
             return False
         self.nbr[src] = b
@@ -321,7 +316,8 @@ class RoleSwitching(Behavior, _Timed):
 
     def _on_ll_info(self, ctx: Context, src: int, b: dict) -> bool:
         o, s, dl, h, e = b["o"], b["s"], b["dl"], b["h"], b["e"]
-        if not (is_int(o) and is_int(s) and is_num(dl) and is_int(h) and is_int(e) and _vec(b["x"]) and _vec(b["u"])):
+        if not (is_int(o) and is_int(s) and is_num(dl) and is_int(h) and is_int(e) and is_point(b["x"])
+                and is_point(b["u"])):
             return False
         if ctx.now > dl:  # F1: expired copies are ignored
             self.flood_stats["expired"] += 1
@@ -413,7 +409,7 @@ class RoleSwitching(Behavior, _Timed):
             return True
         goal = b.get("goal")
         self.pending = {"from": src, "epoch": e, "T": b["T"], "kind": b["kind"],
-                        "goal": goal if _vec(goal) else None, "gk": b.get("gk", -1) if is_int(b.get("gk")) else -1,
+                        "goal": goal if is_point(goal) else None, "gk": b.get("gk", -1) if is_int(b.get("gk")) else -1,
                         "at": ctx.tick}
         self.accepted.append({"from": src, "epoch": e, "tick": ctx.tick, "T": b["T"], "kind": b["kind"]})
         ctx.send(src, ACK, reply)
@@ -441,7 +437,7 @@ class RoleSwitching(Behavior, _Timed):
 
     # ---------------------------------------------------------- mission relay and recovery messages
     def _on_target(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (isinstance(b, dict) and is_int(b.get("k")) and _vec(b.get("x"))):
+        if not (isinstance(b, dict) and is_int(b.get("k")) and is_point(b.get("x"))):
             return False
         if src != self.parent or self.role not in (RP, LL):
             return True
@@ -473,7 +469,7 @@ class RoleSwitching(Behavior, _Timed):
         return True
 
     def _on_where(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (isinstance(b, dict) and is_int(b.get("c")) and b.get("cr") in ROLES and _vec(b.get("cx"))):
+        if not (isinstance(b, dict) and is_int(b.get("c")) and b.get("cr") in ROLES and is_point(b.get("cx"))):
             return False
         self.known_role[src] = b["r"] if b.get("r") in ROLES else self.known_role.get(src, RP)
         self.known_role[b["c"]] = b["cr"]

@@ -32,7 +32,8 @@ def _p(default: Any, kind: str, doc: str) -> Any:
     return field(default=default, metadata={"kind": kind, "doc": doc})
 
 
-def _point(v: Any) -> bool:
+def is_point(v: Any) -> bool:
+    """Whether ``v`` is an [x, y] of finite numbers (a list or tuple of two ints or floats, no bool)."""
     return (type(v) in (list, tuple) and len(v) == 2 and all(type(c) in (int, float) for c in v)
             and all(math.isfinite(c) for c in v))
 
@@ -104,7 +105,7 @@ class RoleParams:
 
 
 def _targets_problem(t: Any) -> str | None:
-    if t is None or (isinstance(t, list) and all(_point(p) for p in t)):
+    if t is None or (isinstance(t, list) and all(is_point(p) for p in t)):
         return None
     if isinstance(t, dict):
         extra = set(t) - {"seed", "count", "lo", "hi"}
