@@ -29,6 +29,7 @@ from swarmactors.progress import RunProgress, summary_table
 from swarmactors.scenario import ScenarioError
 from transport import Endpoints, Keys, Security, ensure_files
 from transport.auth import RUN_SECRET_ENV
+from transport.config import check_endpoint
 
 INSECURE_WARNING = (
     "warning: running without --secure: anyone who can reach {where} can join this run, publish frames "
@@ -211,6 +212,8 @@ def _main(args) -> int:
             return (export_cli if args.command == "export" else newproject).command(args)
         if args.command == "sweep":
             _scenario_file(args.scenario)
+        if args.command == "view":
+            check_endpoint(args.connect)  # bad input (exit 2), not "cannot reach"
         if args.command in ("view", "replay", "sweep"):
             from swarmactors.see import command  # the viewer, replays and sweeps (docs/viewer.md)
 

@@ -176,9 +176,17 @@ async def run_world(
     data = assemble(sc, summary, writer, run_id, processes, interrupted)
     result = write_result(data, out_dir)
     if not interrupted and sc["checks"]:
-        result.data["checks"] = run_checks(result, sc["checks"])
+        result.data["checks"] = judge(result, sc["checks"])
         result = write_result(result.data, out_dir)
     return result
+
+
+def judge(result: Result, specs: list[dict]) -> list[dict]:
+    """Run the scenario's checks; each outcome names the ``[[checks]]`` entry that produced it (``check``)."""
+    outcomes = []
+    for spec in specs:
+        outcomes += [{**o, "check": spec["use"]} for o in run_checks(result, [spec])]
+    return outcomes
 
 
 async def _local_host(link: Link, keys: Keys, allow: Collection[str] = (), run_secret: bytes | None = None) -> None:

@@ -103,8 +103,9 @@ def check_rows(outcomes: list[dict], asked: list[dict]) -> list[tuple[str, str]]
     """Checks as the scenario asked for them, each outcome under the check that produced it."""
     rows = []
     for name, parts in group_outcomes(outcomes, asked):
-        if len(parts) == 1 and parts[0]["name"] == name:
-            rows.append((f"check {name}", verdict(parts[0])))
+        if len(parts) == 1:
+            shown = name if parts[0]["name"] == name else f"{name} ({parts[0]['name']})"
+            rows.append((f"check {shown}", verdict(parts[0])))
             continue
         status = _group_status(parts)
         rows.append((f"check {name}", status))
@@ -114,12 +115,18 @@ def check_rows(outcomes: list[dict], asked: list[dict]) -> list[tuple[str, str]]
 
 
 def group_outcomes(outcomes: list[dict], asked: list[dict]) -> list[tuple[str, list[dict]]]:
-    """Pair outcomes with the ``[[checks]]`` entry that produced them (by order: each returns one or more).
+    """Pair outcomes with the ``[[checks]]`` entry that produced them.
 
+    Outcomes written by ``launcher.judge`` name it (``check``). Older result files are paired by order:
     run_checks appends a check's outcomes in the order of the scenario's checks; an outcome whose name does not
     start with the asked check's family is still that check's (``flooding.forwarding`` returns
     ``flooding.forward_once`` and ``flooding.not_to_sender``). Without the scenario's list, each outcome alone.
     """
+    if any("check" in o for o in outcomes):  # outcomes name their check (launcher.judge)
+        by_check: dict[str, list[dict]] = {}
+        for o in outcomes:
+            by_check.setdefault(o.get("check", o["name"]), []).append(o)
+        return list(by_check.items())
     if not asked:
         return [(o["name"], [o]) for o in outcomes]
     groups: list[tuple[str, list[dict]]] = []
