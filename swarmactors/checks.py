@@ -25,6 +25,7 @@ class Outcome:
     bound: Any = None
     detail: str = ""
     first_tick: int | None = None
+    op: str | None = None  # how value meets bound: "<=", ">=" or "=" (shown as ≤, ≥, =); None: not declared
 
 
 def run_checks(result: Result, specs: list[dict]) -> list[dict]:
