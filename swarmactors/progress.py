@@ -195,24 +195,29 @@ def verdict(o: dict) -> str:
     return text
 
 
-def bound_text(o: dict) -> str:
-    """The bound with its direction: ``op`` when the check declares it, else read from how it was judged.
+_OPS = {"<=": "≤", ">=": "≥", "=": "=", "==": "=", "<": "<", ">": ">"}
 
-    A passed outcome with a value below its bound was judged against an upper bound (≤), above it a lower one
-    (≥), equal to it ``=``; a failed one lies on the wrong side of its bound.
+
+def bound_text(o: dict) -> str:
+    """The bound with its direction: the outcome's ``op`` when the check declares it, else read from the verdict.
+
+    A passed outcome with a value below its bound met an upper bound (≤), above it a lower one (≥), equal to it
+    ``=``; a failed one equal to its bound was an equality (of sets, say). A failed one on one side of its
+    bound could have broken an inequality or an equality: its bound is shown without a direction.
     """
     bound = o.get("bound")
-    op = o.get("op")
+    op = _OPS.get(o.get("op") or "", o.get("op"))
     if op is None:
         value = o.get("value")
-        if not (isinstance(value, (int, float)) and isinstance(bound, (int, float))) or isinstance(bound, bool):
+        numbers = all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in (value, bound))
+        if not numbers:
             return fmt(bound)
         if value == bound:
             op = "="
         elif o["passed"]:
             op = "≤" if value < bound else "≥"
         else:
-            op = "≥" if value < bound else "≤"  # failed: the value is on the wrong side
+            return fmt(bound)
     return f"{op} {fmt(bound)}"
 
 

@@ -167,7 +167,7 @@ def empty(result):
 
 
 def always_fails(result):
-    return Outcome("mine.always_fails", False, value=3, bound=2, detail="three is more than two")
+    return Outcome("mine.always_fails", False, value=3, bound=2, detail="three is more than two", op="<=")
 
 
 def lockstep_only(result):
@@ -286,7 +286,7 @@ def test_check_table_groups_parts_shows_directions_and_nothing_to_judge(project,
     assert "value 30 (bound = 30)" in reach
     assert "nothing to judge" in next(ln for ln in rows if ln.startswith("check mine:empty"))
     failing = next(ln for ln in rows if ln.startswith("check mine:always_fails"))
-    assert "FAILED" in failing and "value 3 (bound ≤ 2)" in failing
+    assert "FAILED" in failing and "value 3 (bound ≤ 2)" in failing  # mine.always_fails declares op="<="
     assert "3 passed, 1 nothing to judge, 1 failed" in err
     result = Result.load(project / "o")
     assert [c["name"] for c in result.checks if not c["passed"]] == ["mine.always_fails"]
@@ -296,8 +296,10 @@ def test_table_rules_bound_direction_status_rounding():
     assert bound_text({"passed": True, "value": 20, "bound": 25}) == "≤ 25"
     assert bound_text({"passed": True, "value": 0.9, "bound": 0.5}) == "≥ 0.5"
     assert bound_text({"passed": True, "value": 30, "bound": 30}) == "= 30"
-    assert bound_text({"passed": False, "value": 0.2, "bound": 0.5}) == "≥ 0.5"
-    assert bound_text({"passed": False, "value": 3, "bound": 0, "op": "="}) == "= 0"  # a declared op wins
+    assert bound_text({"passed": False, "value": 0.2, "bound": 0.5}) == "0.5"  # ≥ 0.5 or = 0.5: not said
+    assert bound_text({"passed": False, "value": 30, "bound": 30}) == "= 30"
+    assert bound_text({"passed": False, "value": 3, "bound": 0, "op": "<="}) == "≤ 0"  # a declared op wins
+    assert bound_text({"passed": True, "value": 3, "bound": 3, "op": ">="}) == "≥ 3"
     gabriel = {"name": "roles.gabriel_formed", "passed": True, "value": 1.0, "bound": 0.9,
                "detail": "0 of 0 Gabriel edges formed at tick 99; mean over the run 1.000"}
     assert status(gabriel) == "nothing to judge"
