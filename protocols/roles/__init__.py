@@ -45,8 +45,8 @@ the base station in range for the position of its child (RS_WHERE), heads there,
 and is back when a fresh u_LL reaches it through a link.
 
 Files: ``behavior.py`` (the robot side: RoleSwitching, AATWalk), ``params.py`` (RoleSwitching's parameters,
-validated in one place), ``rules.py`` (the motion laws and Algorithm 1's request as pure functions), ``aat.py``
-(the acute angle test), ``oracle.py`` (checks), ``scenarios.py`` (placements and scenarios) and ``suite.py``
-(the conformance family).
+validated in one place), ``rules.py`` (the motion laws, Algorithm 1's request and its answer as pure
+functions), ``aat.py`` (the acute angle test), ``oracle.py`` (checks), ``scenarios.py`` (placements and
+scenarios) and ``suite.py`` (the conformance family).
 Nothing is imported here, so loading the behaviour loads no oracle.
 """

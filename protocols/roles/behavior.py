@@ -21,9 +21,16 @@ import numpy as np
 from protocols.roles.aat import MODES, PROPOSED, Connections
 from protocols.roles.params import RoleParams, is_point
 from protocols.roles.rules import (
+    BS,
+    EX,
     EXTEND,
+    LL,
+    REMEMBERED,
     RETRACT,
+    ROLES,
+    RP,
     Candidate,
+    answer_request,
     cap,
     explorer_input,
     head_to,
@@ -36,8 +43,6 @@ from swarmactors import Behavior, Context, Frame
 from swarmactors.behavior import is_int, is_num
 
 # ------------------------------------------------------------------ roles and message kinds
-BS, RP, LL, EX = "base_station", "repeater", "local_leader", "explorer"
-ROLES = (BS, RP, LL, EX)
 ROLE_CODE = {BS: 0, RP: 1, LL: 2, EX: 3}
 LINKABLE = (LL, EX)
 
@@ -366,53 +371,23 @@ class RoleSwitching(Behavior, _Timed):
 
     # ---------------------------------------------------------- Algorithm 1 messages
     def _on_request(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (isinstance(b, dict) and isinstance(b.get("role"), str) and is_int(b.get("e"))
-                and is_int(b.get("T")) and b.get("kind") in (EXTEND, RETRACT)):
-            self._refuse("malformed")
-            return True
-        reply = {"e": b["e"]}
-        if b["role"] not in ROLES:
-            self._refuse("unknown_role")
-            ctx.send(src, NACK, reply | {"why": "unknown_role"})
-            return True
-        if b["role"] != LL:
-            self._refuse("not_requestable")
-            ctx.send(src, NACK, reply | {"why": "not_requestable"})
-            return True
-        e = b["e"]
+        """Answer a ROLE_REQUEST (``rules.answer_request``, rules H2-H3); accepting makes it pending."""
         p = self.pending
-        if (p is not None and p["from"] == src and p["epoch"] == e) or (
-                self.role == LL and self.epoch == e and self.took_over and self.took_over["from"] == src):
-            ctx.send(src, ACK, reply)  # a retry of what we accepted (links may have changed since): ACK again
-            return True
-        why = self.decided.get((src, e))
-        if why is not None:  # a retry of what we refused: the same answer, whatever changed since (H2)
-            ctx.send(src, NACK, reply | {"why": why})
-            return True
-        if src not in self.conn.links and src not in (self.parent, self.child):
-            self._refuse("not_neighbour", src, e)
-            ctx.send(src, NACK, reply | {"why": "not_neighbour"})
-            return True
-        if self.role == BS:
-            self._refuse("base_station", src, e)
-            ctx.send(src, NACK, reply | {"why": "base_station"})
-            return True
-        fits = (b["kind"] == EXTEND and self.role == EX) or (
-            b["kind"] == RETRACT and self.role == RP and self.child == src)
-        if not fits or p is not None:
-            self._refuse("role_conflict", src, e)
-            ctx.send(src, NACK, reply | {"why": "role_conflict"})
-            return True
-        if e <= self.epoch:
-            self._refuse("stale", src, e)
-            ctx.send(src, NACK, reply | {"why": "stale"})
-            return True
-        goal = b.get("goal")
-        self.pending = {"from": src, "epoch": e, "T": b["T"], "kind": b["kind"],
-                        "goal": goal if is_point(goal) else None, "gk": b.get("gk", -1) if is_int(b.get("gk")) else -1,
-                        "at": ctx.tick}
-        self.accepted.append({"from": src, "epoch": e, "tick": ctx.tick, "T": b["T"], "kind": b["kind"]})
-        ctx.send(src, ACK, reply)
+        ans = answer_request(b, src, self.role, self.epoch, src in self.conn.links or src in (self.parent, self.child),
+                             self.child, (p["from"], p["epoch"]) if p is not None else None,
+                             self.took_over["from"] if self.took_over else None, self.decided)
+        if ans.why is not None and ans.new:
+            self._refuse(ans.why, *((src, b["e"]) if ans.why in REMEMBERED else ()))
+        if ans.reply == "nack":
+            ctx.send(src, NACK, {"e": b["e"], "why": ans.why})
+        elif ans.reply == "ack":
+            if ans.new:  # H3: accepted; we switch at tick T
+                goal = b.get("goal")
+                self.pending = {"from": src, "epoch": b["e"], "T": b["T"], "kind": b["kind"],
+                                "goal": goal if is_point(goal) else None,
+                                "gk": b.get("gk", -1) if is_int(b.get("gk")) else -1, "at": ctx.tick}
+                self.accepted.append({"from": src, "epoch": b["e"], "tick": ctx.tick, "T": b["T"], "kind": b["kind"]})
+            ctx.send(src, ACK, {"e": b["e"]})
         return True
 
     def _on_ack(self, ctx: Context, src: int, b: dict) -> bool:

@@ -1,4 +1,4 @@
-"""RoleSwitching's rules as pure functions: the motion laws (Eqs. 1-7) and Algorithm 1's request.
+"""RoleSwitching's rules as pure functions: the motion laws (Eqs. 1-7) and Algorithm 1's request and answer.
 
 Kobayashi, Higuchi & Ueno (2022). Every function takes what the robot knows (its position, its parent's and
 child's, its links' last states, the flooded u_LL and x_LL) and its parameters, and returns a control input
@@ -9,13 +9,16 @@ test_roles_rules.py checks them. Vectors are numpy arrays of 2 floats; u is per 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from typing import NamedTuple
+from collections.abc import Mapping, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from protocols.roles.params import RoleParams
+from swarmactors.behavior import is_int
 
+BS, RP, LL, EX = "base_station", "repeater", "local_leader", "explorer"
+ROLES = (BS, RP, LL, EX)
 EXTEND, RETRACT = "extend", "retract"
 NACK_BACKOFF = 20  # ticks a robot that refused a request is not asked again (ours)
 
@@ -149,3 +152,53 @@ def role_change_request(tick: int, x: np.ndarray, xp: np.ndarray, parent: int, p
             parent_refused_at is None or tick - parent_refused_at >= NACK_BACKOFF):
         return Request(RETRACT, parent)
     return None
+
+
+class Answer(NamedTuple):
+    """A candidate's answer to a ROLE_REQUEST (rules H2-H3)."""
+
+    reply: str | None  # "ack", "nack", or None (a malformed request gets no reply)
+    why: str | None  # the reason of a refusal
+    new: bool  # a decision taken now (counted in ``refused``), not the repeat of an earlier one
+
+
+REMEMBERED = ("not_neighbour", "base_station", "role_conflict", "stale")  # refusals repeated to every retry
+
+
+def answer_request(body: Any, src: int, role: str, epoch: int, linked: bool, child: int | None,
+                   pending: tuple[int, int] | None, led_from: int | None,
+                   decided: Mapping[tuple[int, int], str]) -> Answer:
+    """How the robot answers ``src``'s request ``body`` to become local leader (Algorithm 1, made safe).
+
+    In order: a malformed request is refused without a reply; a request for a role that does not exist
+    (unknown_role) or is not the local leader (not_requestable) is refused. H2: a retry of a request we
+    accepted is acknowledged again (``pending`` = (requester, epoch) accepted and waiting for the switch tick,
+    or ``led_from`` = the requester we took the lead from at this ``epoch``), and a retry of one we refused
+    gets the same answer (``decided``: (requester, epoch) -> reason), whatever changed since. Otherwise it is
+    refused when the requester is not linked (not_neighbour), we are the base station (base_station), the
+    request does not fit our role (role_conflict: EXTEND asks an explorer, RETRACT the parent repeater of the
+    requester) or we already accepted another one, or its epoch is not above ours (stale); H3: accepted.
+    """
+    if not (isinstance(body, dict) and isinstance(body.get("role"), str) and is_int(body.get("e"))
+            and is_int(body.get("T")) and body.get("kind") in (EXTEND, RETRACT)):
+        return Answer(None, "malformed", True)
+    if body["role"] not in ROLES:
+        return Answer("nack", "unknown_role", True)
+    if body["role"] != LL:
+        return Answer("nack", "not_requestable", True)
+    e = body["e"]
+    if pending == (src, e) or (role == LL and epoch == e and led_from == src):
+        return Answer("ack", None, False)
+    why = decided.get((src, e))
+    if why is not None:
+        return Answer("nack", why, False)
+    if not linked:
+        return Answer("nack", "not_neighbour", True)
+    if role == BS:
+        return Answer("nack", "base_station", True)
+    fits = (body["kind"] == EXTEND and role == EX) or (body["kind"] == RETRACT and role == RP and child == src)
+    if not fits or pending is not None:
+        return Answer("nack", "role_conflict", True)
+    if e <= epoch:
+        return Answer("nack", "stale", True)
+    return Answer("ack", None, True)

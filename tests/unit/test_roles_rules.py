@@ -16,10 +16,16 @@ from hypothesis import strategies as st
 from protocols.roles.behavior import RoleSwitching
 from protocols.roles.params import RoleParams
 from protocols.roles.rules import (
+    BS,
+    EX,
     EXTEND,
+    LL,
     NACK_BACKOFF,
     RETRACT,
+    RP,
+    Answer,
     Candidate,
+    answer_request,
     cap,
     explorer_input,
     head_to,
@@ -207,3 +213,49 @@ def test_algorithm1_request_kind_follows_the_thresholds(d, n):
         assert req == (RETRACT, 7)
     else:
         assert req is None
+
+
+# ---------------------------------------------------------------- Algorithm 1: the candidate's answer (H2-H3)
+REQ = {"role": LL, "e": 5, "T": 40, "kind": EXTEND, "goal": [1.0, 2.0], "gk": 3}
+
+
+def answer(body=REQ, src=7, role=EX, epoch=4, linked=True, child=None, pending=None, led_from=None, decided=None):
+    return answer_request(body, src, role, epoch, linked, child, pending, led_from, decided or {})
+
+
+def test_a_linked_explorer_accepts_an_extension_with_a_newer_epoch():
+    assert answer() == Answer("ack", None, True)
+
+
+def test_the_parent_repeater_accepts_a_retraction_from_its_child():
+    assert answer({**REQ, "kind": RETRACT}, role=RP, child=7) == Answer("ack", None, True)
+    assert answer({**REQ, "kind": RETRACT}, role=RP, child=8) == Answer("nack", "role_conflict", True)
+
+
+@pytest.mark.parametrize("body", [None, [], {**REQ, "e": "5"}, {**REQ, "T": True}, {**REQ, "kind": "swap"},
+                                  {k: v for k, v in REQ.items() if k != "role"}])
+def test_a_malformed_request_gets_no_reply(body):
+    assert answer(body) == Answer(None, "malformed", True)
+
+
+@pytest.mark.parametrize("kw,why", [
+    ({"body": {**REQ, "role": "king"}}, "unknown_role"),
+    ({"body": {**REQ, "role": RP}}, "not_requestable"),
+    ({"linked": False}, "not_neighbour"),
+    ({"role": BS}, "base_station"),
+    ({"role": RP}, "role_conflict"),  # an extension asks an explorer
+    ({"role": LL}, "role_conflict"),
+    ({"pending": (9, 6)}, "role_conflict"),  # already accepted another request
+    ({"epoch": 5}, "stale"),
+    ({"epoch": 8}, "stale"),
+])
+def test_refusals_name_their_reason(kw, why):
+    assert answer(**kw) == Answer("nack", why, True)
+
+
+def test_retries_get_the_same_answer_whatever_changed_h2():
+    assert answer(pending=(7, 5), linked=False) == Answer("ack", None, False)  # accepted, waiting for T
+    assert answer(role=LL, epoch=5, led_from=7, linked=False) == Answer("ack", None, False)  # switched already
+    assert answer(decided={(7, 5): "stale"}) == Answer("nack", "stale", False)  # now it would fit: same answer
+    assert answer(decided={(7, 4): "stale"}) == Answer("ack", None, True)  # another epoch: a new request
+    assert answer(role=LL, epoch=5, led_from=8) == Answer("nack", "role_conflict", True)
