@@ -9,6 +9,8 @@ at the send tick:
   destination and only if in range (else dropped as ``range``);
 * cuts and partitions - a frame over a cut link or between partition groups is
   dropped as ``cut``;
+* occlusion - with ``radio.occlusion``, a frame to a receiver that an obstacle hides
+  from the sender (world/space.py) is dropped as ``occluded``;
 * bandwidth - an optional cap of bytes per robot per tick; frames past it, in
   sending order, are dropped as ``bandwidth`` for every receiver;
 * loss - per (frame, receiver), from the counter-based generator:
@@ -44,6 +46,7 @@ class RadioConfig:
     model: str = "bernoulli"
     delta: float = 0.1
     bandwidth: int = 0  # bytes per robot per tick; 0 = unlimited
+    occlusion: bool = False  # obstacles block links (world/space.py)
 
     @classmethod
     def from_dict(cls, data: dict) -> RadioConfig:
@@ -107,10 +110,12 @@ class Medium:
         alive: np.ndarray,
         positions: np.ndarray,
         ranges: np.ndarray,
+        occluded: dict[int, np.ndarray] | None = None,
     ) -> tuple[list[tuple], list[tuple[int, int, int, str, str]]]:
         """Return ``(deliveries, drops)`` for frames sent at ``tick``.
 
-        ``in_range[src]`` lists the alive robots within ``src``'s range (sorted).
+        ``in_range[src]`` lists the alive robots within ``src``'s range (sorted); ``occluded[src]`` those of them
+        an obstacle hides from it.
         A delivery is ``(receiver, src, seq, frame, tick)``; a drop is
         ``(src, seq, dst, kind, cause)``.
         """
@@ -147,6 +152,12 @@ class Medium:
                 severed = np.array([self._severed(f.src, int(r)) for r in receivers])
                 drops.extend((f.src, f.seq, int(r), f.kind, "cut") for r in receivers[severed])
                 receivers = receivers[~severed]
+            hidden = occluded.get(f.src) if occluded else None
+            if hidden is not None and receivers.size:
+                mask = np.isin(receivers, hidden)
+                if mask.any():
+                    drops.extend((f.src, f.seq, int(r), f.kind, "occluded") for r in receivers[mask])
+                    receivers = receivers[~mask]
             p_ok = self._success_probability(f.src, receivers, positions, ranges)
             if p_ok is not None:
                 u = rng.uniform(self.seed, rng.LOSS, tick, f.src, f.seq, receivers)
