@@ -197,10 +197,11 @@ class Result:
                 edges += [(a, b)] * bool(d <= r[a]) + [(b, a)] * bool(d <= r[b])
             elif d <= r[a] and d <= r[b]:
                 edges.append((a, b))
-        if self["scenario"]["radio"].get("occlusion"):
+        sc = self.data.get("scenario") or {}
+        if sc.get("radio", {}).get("occlusion"):
             from swarmactors.occlusion_oracle import Occluders
 
-            world = self["scenario"]["world"]
+            world = sc["world"]
             if world.get("obstacles") or world.get("map"):
                 occluders = Occluders(world)
                 edges = [(a, b) for a, b in edges if not occluders.blocks(pos[a], pos[b])]
