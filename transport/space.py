@@ -239,22 +239,23 @@ class Space:
     def _grid_near(self, pts: np.ndarray, radius: np.ndarray, ground) -> np.ndarray:
         g = self.grid
         out = np.zeros(len(pts), dtype=bool)
-        gr = np.broadcast_to(np.asarray(ground), (len(pts),))
-        for i in np.flatnonzero(radius > 0):
-            p, r = pts[i], radius[i]
-            span = int(np.ceil(r / g.cell)) + 1
-            offs = np.arange(-span, span + 1) * g.cell
-            cx, cy = np.meshgrid(p[0] + offs, p[1] + offs)
-            cells = np.column_stack([cx.ravel(), cy.ravel(), np.full(cx.size, p[2])])
-            cells[:, 0] = g.origin[0] + (np.floor((cells[:, 0] - g.origin[0]) / g.cell) + 0.5) * g.cell
-            cells[:, 1] = g.origin[1] + (np.floor((cells[:, 1] - g.origin[1]) / g.cell) + 0.5) * g.cell
-            stop = g.cells_at(cells, self.flat, gr[i])
-            if not stop.any():
-                continue
-            c = cells[stop]
-            dx = np.maximum(np.abs(c[:, 0] - p[0]) - g.cell / 2, 0.0)
-            dy = np.maximum(np.abs(c[:, 1] - p[1]) - g.cell / 2, 0.0)
-            out[i] = bool((np.hypot(dx, dy) < r).any())
+        idx = np.flatnonzero(radius > 0)
+        if idx.size == 0:
+            return out
+        span = int(np.ceil(float(radius[idx].max()) / g.cell)) + 1
+        offs = np.arange(-span, span + 1) * g.cell
+        ox, oy = (a.ravel() for a in np.meshgrid(offs, offs))
+        p = pts[idx]
+        # centres of the cells around each body (k bodies x m cells)
+        cx = g.origin[0] + (np.floor((p[:, 0, None] + ox[None] - g.origin[0]) / g.cell) + 0.5) * g.cell
+        cy = g.origin[1] + (np.floor((p[:, 1, None] + oy[None] - g.origin[1]) / g.cell) + 0.5) * g.cell
+        cz = np.broadcast_to(p[:, 2, None], cx.shape)
+        gr = np.broadcast_to(np.asarray(ground), (len(pts),))[idx]
+        stop = g.cells_at(np.column_stack([cx.ravel(), cy.ravel(), cz.ravel()]), self.flat,
+                          np.repeat(gr, cx.shape[1])).reshape(cx.shape)
+        dx = np.maximum(np.abs(cx - p[:, 0, None]) - g.cell / 2, 0.0)
+        dy = np.maximum(np.abs(cy - p[:, 1, None]) - g.cell / 2, 0.0)
+        out[idx] = (stop & (np.hypot(dx, dy) < radius[idx, None])).any(axis=1)
         return out
 
 

@@ -9,8 +9,8 @@ at the send tick:
   destination and only if in range (else dropped as ``range``);
 * cuts and partitions - a frame over a cut link or between partition groups is
   dropped as ``cut``;
-* occlusion - with ``radio.occlusion``, a frame to a receiver that an obstacle hides
-  from the sender (world/space.py) is dropped as ``occluded``;
+* occlusion - with ``radio.occlusion``, a frame to a receiver in range that an
+  obstacle hides from the sender (world/space.py) is dropped as ``occluded``;
 * bandwidth - an optional cap of bytes per robot per tick; frames past it, in
   sending order, are dropped as ``bandwidth`` for every receiver;
 * loss - per (frame, receiver), from the counter-based generator:
@@ -114,8 +114,8 @@ class Medium:
     ) -> tuple[list[tuple], list[tuple[int, int, int, str, str]]]:
         """Return ``(deliveries, drops)`` for frames sent at ``tick``.
 
-        ``in_range[src]`` lists the alive robots within ``src``'s range (sorted); ``occluded[src]`` those of them
-        an obstacle hides from it.
+        ``in_range[src]`` lists the alive robots within ``src``'s range (sorted); ``occluded[src]``, for a sender
+        an obstacle cuts off from some of them, is ``(heard, hidden)``: that list split by occlusion.
         A delivery is ``(receiver, src, seq, frame, tick)``; a drop is
         ``(src, seq, dst, kind, cause)``.
         """
@@ -127,10 +127,14 @@ class Medium:
         budget = self._budget
         n = len(alive)
         for f in frames:
+            split = occluded.get(f.src) if occluded else None
             if f.dst is None:
-                receivers = in_range[f.src]
+                receivers = in_range[f.src] if split is None else split[0]
                 if f.exclude:
                     receivers = receivers[~np.isin(receivers, f.exclude)]
+                if split is not None:
+                    hidden = split[1][~np.isin(split[1], f.exclude)] if f.exclude else split[1]
+                    drops.extend((f.src, f.seq, r, f.kind, "occluded") for r in hidden.tolist())
             else:
                 d = f.dst
                 if not (0 <= d < n) or not alive[d]:
@@ -138,6 +142,9 @@ class Medium:
                     continue
                 if np.linalg.norm(positions[d] - positions[f.src]) > ranges[f.src]:
                     drops.append((f.src, f.seq, d, f.kind, "range"))
+                    continue
+                if split is not None and (split[1] == d).any():
+                    drops.append((f.src, f.seq, d, f.kind, "occluded"))
                     continue
                 receivers = np.array([d], dtype=np.int64)
             if receivers.size == 0:
@@ -152,12 +159,6 @@ class Medium:
                 severed = np.array([self._severed(f.src, int(r)) for r in receivers])
                 drops.extend((f.src, f.seq, int(r), f.kind, "cut") for r in receivers[severed])
                 receivers = receivers[~severed]
-            hidden = occluded.get(f.src) if occluded else None
-            if hidden is not None and receivers.size:
-                mask = np.isin(receivers, hidden)
-                if mask.any():
-                    drops.extend((f.src, f.seq, int(r), f.kind, "occluded") for r in receivers[mask])
-                    receivers = receivers[~mask]
             p_ok = self._success_probability(f.src, receivers, positions, ranges)
             if p_ok is not None:
                 u = rng.uniform(self.seed, rng.LOSS, tick, f.src, f.seq, receivers)

@@ -91,6 +91,24 @@ class SpaceRules:
                 pos[b] = before[b]
 
     # ------------------------------------------------------------ radio
+    def hidden_by_sender(self, pos: np.ndarray, reach: dict[int, np.ndarray]) -> dict[int, tuple]:
+        """Per sender whose reach (``reach[src]``, sorted) an obstacle cuts: ``(heard, hidden)`` robot ids."""
+        if not self.occlusion or not reach:
+            return {}
+        senders = np.fromiter(reach, dtype=np.int64, count=len(reach))
+        counts = np.array([len(v) for v in reach.values()], dtype=np.int64)
+        src = np.repeat(senders, counts)
+        dst = np.concatenate([np.zeros(0, dtype=np.int64), *reach.values()]).astype(np.int64)
+        hidden = self.occluded(pos, src, dst)
+        if not hidden.any():
+            return {}
+        out: dict[int, tuple] = {}
+        cuts = np.cumsum(counts)[:-1]
+        for k, part, mask in zip(senders.tolist(), np.split(dst, cuts), np.split(hidden, cuts), strict=True):
+            if mask.any():
+                out[k] = (part[~mask], part[mask])
+        return out
+
     def occluded(self, pos: np.ndarray, src: np.ndarray, dst: np.ndarray) -> np.ndarray:
         """Whether the link src -> dst (arrays of robot ids) crosses an obstacle."""
         if not self.occlusion or len(src) == 0:

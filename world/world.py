@@ -155,7 +155,7 @@ class World:
         self._sensed: dict[int, tuple] = {}
         self._poses: list[list[float]] = []
         self._known: dict[int, list[str]] | None = None  # objects each robot knows this tick (None: all)
-        self._occluded: dict[int, np.ndarray] = {}  # sender -> robots in range hidden by an obstacle
+        self._occluded: dict[int, tuple] = {}  # sender -> (heard, hidden): its reach split by obstacles
         self._rays: dict[int, list[float]] = {}  # robot -> obstacle range-ray distances
 
     @property
@@ -217,7 +217,7 @@ class World:
             sensed_ids = within(self.robots.pos, alive, self.robots.sensing)
         self._sensed = sense(self.robots.pos, sensed_ids, self.robots.noise, self.seed, self.tick, POS_DIGITS)
         r = self.robots
-        self._occluded = self._occlusion(alive)
+        self._occluded = self.space.hidden_by_sender(r.pos, self._reach) if self.space is not None else {}
         self._rays = (self.space.rays(r.pos, r.heading, r.sensing, r.rays, alive)
                       if self.space is not None and r.rays.any() else {})
         if self.space is not None and r.body.any():
@@ -304,18 +304,6 @@ class World:
         if entry.pending_new:
             msg.new, entry.pending_new = entry.pending_new, []
         return msg
-
-    def _occlusion(self, alive: np.ndarray) -> dict[int, np.ndarray]:
-        """Per sender, the robots in its range that an obstacle hides from it (``radio.occlusion``)."""
-        if self.space is None or not self.space.occlusion:
-            return {}
-        src = np.repeat(np.array(list(self._reach), dtype=np.int64), [len(v) for v in self._reach.values()])
-        dst = np.concatenate([np.zeros(0, dtype=np.int64), *self._reach.values()]).astype(np.int64)
-        hidden = self.space.occluded(self.robots.pos, src, dst)
-        out: dict[int, np.ndarray] = {}
-        for k in np.unique(src[hidden]).tolist():
-            out[k] = dst[hidden & (src == k)]
-        return out
 
     def _known_objects(self) -> dict[int, list[str]] | None:
         """Which objects each robot knows (None: every robot knows every object, the default).
