@@ -98,6 +98,8 @@ class Context:
         self._dt = float(dt)
         self._range = float(radio_range)
         self._sensing = float(sensing_range)
+        self._map = None  # swarmactors.knownmap.KnownMap, for a robot given the map
+        self._rays: tuple[float, ...] | None = None
         self._now: float = 0
         self._tick = 0
         self.pose = np.zeros(3)  # x, y, heading (x, y, z, heading in 3-D)
@@ -141,6 +143,20 @@ class Context:
     def sensing(self) -> float:
         """This robot's sensing range (its group's ``sensing``)."""
         return self._sensing
+
+    @property
+    def map(self):
+        """The run's static obstacles as prior knowledge (``KnownMap``; its group's ``knows_map``), else None."""
+        return self._map
+
+    @property
+    def rays(self) -> tuple[float, ...] | None:
+        """Distances to the nearest obstacle along this robot's range rays (its group's ``obstacle_rays``).
+
+        Ray k points at ``heading + 2*pi*k/n``; ``inf`` when no obstacle lies within the sensing range.
+        None when the robot has no rays.
+        """
+        return self._rays
 
     def _set_time(self, tick: int, now: float) -> None:
         """The host advances the robot's time (the only writer)."""

@@ -26,6 +26,7 @@ import msgspec
 import numpy as np
 
 from swarmactors.behavior import Behavior, Context, Frame, Sensed
+from swarmactors.knownmap import KnownMap
 from swarmactors.plugins import RefusedBehavior, resolve_behavior
 from swarmactors.tasks import TaskSet
 from transport import Keys, Link, MalformedMessage, pack, seal, unseal
@@ -58,6 +59,8 @@ class Robot:
                            radio_range=descr.range, sensing_range=descr.sensing)
         self.ctx._encode = pack
         self.ctx.pose = np.array(descr.pose, dtype=float)
+        if descr.knows_map and run.map is not None:
+            self.ctx._map = KnownMap.from_spec(run.map)  # its own copy
         self.behaviors: list[Behavior] = []
         self.report_names: list[str] = []  # the name each behaviour's report goes under
         self.started = False
@@ -337,8 +340,10 @@ class RobotHost:
         for descr in msg.new:
             self._adopt(descr)
 
-    def _set_inputs(self, robot: Robot, pose: list, now: float, objects: dict, known: list[str] | None) -> None:
+    def _set_inputs(self, robot: Robot, pose: list, now: float, objects: dict, known: list[str] | None,
+                    rays: list[float] | None = None) -> None:
         ctx = robot.ctx
+        ctx._rays = None if rays is None else tuple(rays)
         ctx.pose = np.array(pose, dtype=float)
         ctx._set_time(self.tick, now)
         # each robot its own dict, with the objects it knows
@@ -384,7 +389,7 @@ class RobotHost:
                 if robot is not None and robot.error and not robot.error_sent:
                     stepped.append(robot)  # tell the world once why this robot is gone
                 continue
-            self._set_inputs(robot, row.pose, now, objects, row.objects)
+            self._set_inputs(robot, row.pose, now, objects, row.objects, row.rays)
             inbox = [frames.frame(k) for k in row.inbox]
             if None in inbox:
                 robot.bad_bodies += inbox.count(None)
@@ -489,7 +494,7 @@ class RobotHost:
                     if robot is not None and robot.error and not robot.error_sent:
                         touched.append(robot)
                     continue
-                self._set_inputs(robot, row.pose, self._rt_now(), msg.objects, row.objects)
+                self._set_inputs(robot, row.pose, self._rt_now(), msg.objects, row.objects, row.rays)
                 ids, flat = row.sensed
                 self._rt_run(robot, robot.calls([], SensedView(ids, flat, len(row.pose) - 1)))
                 touched.append(robot)

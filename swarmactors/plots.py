@@ -95,12 +95,30 @@ def plot_run(result: Result, path: Path, field: str | None = None, tick: int | N
     values = {rid: robots[rid].get("status", {}).get(field) for rid in pos if rid in robots} if field else {}
     dead = {rid: robots[rid]["pose"][:2] for rid, r in robots.items() if not r["alive"]}
     title = f"{result['scenario']['run']['name']} at tick {t}: links and {field or 'positions'}"
-    return draw_swarm(path, pos, edges, field, values, dead, title, labels)
+    world = result["scenario"].get("world") or {}
+    space = None
+    if world.get("obstacles") or world.get("map") or any(g.get("body_radius") or g.get("kind") == "flying"
+                                                          for g in result["scenario"].get("robots", [])):
+        full = {row[0]: row[1:] for row in rec.get("pos", [])} if result.trace_path is not None else {}
+        space = {"world": world, "full": full,
+                 "radius": {rid: r.get("body_radius", 0.0) for rid, r in _robot_specs(result).items()},
+                 "flying": {rid for rid, r in _robot_specs(result).items() if r.get("kind") == "flying"}}
+    return draw_swarm(path, pos, edges, field, values, dead, title, labels, space)
+
+
+def _robot_specs(result: Result) -> dict[int, dict]:
+    """Each robot's group parameters (body radius, kind), by id, from the resolved scenario's groups."""
+    out, rid = {}, 0
+    for g in result["scenario"].get("robots", []):
+        for _ in range(g["count"]):
+            out[rid] = g
+            rid += 1
+    return out
 
 
 def draw_swarm(path: Path, pos: dict[int, tuple], edges: list[tuple[int, int]], field: str | None = None,
                values: dict[int, object] | None = None, dead: dict[int, tuple] | None = None, title: str = "",
-               labels: bool | None = None) -> Path:
+               labels: bool | None = None, space: dict | None = None) -> Path:
     """Draw robots at ``pos`` (id -> (x, y)), ``edges`` between them, coloured by ``values`` of ``field``.
 
     Args:
@@ -112,6 +130,7 @@ def draw_swarm(path: Path, pos: dict[int, tuple], edges: list[tuple[int, int]], 
         dead: positions of failed robots, drawn as red crosses.
         title: the axes' title.
         labels: write ids; default only when ``len(pos) <= LABEL_MAX``.
+        space: obstacles, bodies and flying robots to draw (plot_run builds it; swarmactors.draw_space).
 
     Returns:
         ``path``.
@@ -166,7 +185,15 @@ def draw_swarm(path: Path, pos: dict[int, tuple], edges: list[tuple[int, int]], 
         else:
             ax.legend(handles=handles, title=title, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8,
                       frameon=False)
-    _limits(ax, [*pos.values(), *dead.values()])
+    extra = []
+    if space:  # obstacles and maps under the robots, bodies to scale, flying robots marked (draw_space)
+        from swarmactors.draw_space import draw_bodies, draw_flying, draw_space, space_extent
+
+        draw_space(ax, space["world"])
+        draw_bodies(ax, pos, space["radius"])
+        draw_flying(ax, space["full"] or pos, space["flying"], size, n <= LABEL_MAX)
+        extra = space_extent(space["world"])
+    _limits(ax, [*pos.values(), *dead.values(), *extra])
     ax.set_aspect("equal")
     ax.set_xlabel("x (length units)")
     ax.set_ylabel("y (length units)")

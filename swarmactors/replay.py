@@ -108,6 +108,7 @@ class FrameStyle:
     missing: bool  # some robot has no value of the field in some frame
     failed: bool  # some robot fails during the animation
     objects: bool
+    world: dict | None = None  # the resolved [world] section: obstacles and maps are drawn (draw_space)
 
 
 def render(trace: str | Path, out: str | Path, every: int = 1, fps: float = 10.0, field: str | None = None,
@@ -191,7 +192,8 @@ def frame_style(replay: Replay, scenes: list[Scene], field: str | None, labels: 
     missing = bool(field) and any(s.status.get(row[0], {}).get(field) is None for s in scenes for row in s.pos)
     return FrameStyle(field, cats, span, (lo[0] - pad, lo[1] - pad), (hi[0] + pad, hi[1] + pad),
                       labels, size,
-                      replay._base.bounds, missing, any(s.dead for s in scenes), any(s.objects for s in scenes))
+                      replay._base.bounds, missing, any(s.dead for s in scenes), any(s.objects for s in scenes),
+                      (replay.header.get("scenario") or {}).get("world"))
 
 
 def frame_figure(style: FrameStyle):
@@ -229,6 +231,10 @@ def draw_scene(ax, scene: Scene, style: FrameStyle) -> None:
         if len(a):
             ax.add_collection(LineCollection(np.stack([xy[a], xy[b]], axis=1), colors="0.82", linewidths=0.8,
                                              zorder=1))
+    if style.world:
+        from swarmactors.draw_space import draw_space
+
+        draw_space(ax, style.world)
     if style.bounds:
         (x0, y0), (x1, y1) = style.bounds[0][:2], style.bounds[1][:2]
         ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, ls="--", lw=0.8, ec="0.5", zorder=0))

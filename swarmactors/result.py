@@ -168,7 +168,8 @@ class Result:
         """The true radio graph at ``tick``.
 
         Alive robots, links in range (mutual unless ``directed``: an edge a -> b when b is within a's range),
-        minus cut links and links between partition groups. An oracle: computed here from the trace, on its
+        minus cut links, links between partition groups and (``radio.occlusion``) links that cross an obstacle
+        (swarmactors/occlusion_oracle.py, with shapely). An oracle: computed here from the trace, on its
         own (a k-d tree for candidate pairs, then the rule on exact distances), independently of the world's
         radio; tests/unit/test_graph_at.py checks that the two agree.
         """
@@ -196,6 +197,14 @@ class Result:
                 edges += [(a, b)] * bool(d <= r[a]) + [(b, a)] * bool(d <= r[b])
             elif d <= r[a] and d <= r[b]:
                 edges.append((a, b))
+        sc = self.data.get("scenario") or {}
+        if sc.get("radio", {}).get("occlusion"):
+            from swarmactors.occlusion_oracle import Occluders
+
+            world = sc["world"]
+            if world.get("obstacles") or world.get("map"):
+                occluders = Occluders(world)
+                edges = [(a, b) for a, b in edges if not occluders.blocks(pos[a], pos[b])]
         g.add_edges_from((ids[a], ids[b]) for a, b in sorted(edges))
         return g
 

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from swarmactors.behavior import check_params
+from swarmactors.behavior import check_params, is_num
 from swarmactors.plugins import BEHAVIORS, CHECKS, PluginError, resolve
 from transport.messages import ACTIONS, action_problem
 
@@ -77,12 +77,16 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "model": (str, "bernoulli", _one_of("bernoulli", "distance")),
         "delta": (_NUM, 0.1, _positive),
         "bandwidth": (int, 0, _non_negative),
+        "occlusion": (bool, False, None),  # obstacles block links (world/space.py)
     },
     "world": {
         "dims": (int, 2, _one_of(2, 3)),
         "max_robots": (int, 10_000, _positive),  # robots a run may hold, joins and adds included (issue 27)
         "bounds": (list, None, None),
         "objects": (list, [], None),
+        "obstacles": (list, [], None),  # convex prisms (swarmactors/maps.py, transport/space.py)
+        "map": ((dict, str), None, None),  # a grid map: a Moving AI file or a generated maze
+        "blocking": (bool, False, None),  # bodies cannot overlap (world/space.py)
     },
 }
 GROUP: dict[str, tuple] = {
@@ -99,6 +103,11 @@ GROUP: dict[str, tuple] = {
     "noise": (_NUM, 0.0, _non_negative),
     "heading": (_NUM, 0.0, None),
     "kind": (str, "ground", _one_of("ground", "flying")),
+    "body_radius": (_NUM, 0.0, _non_negative),  # 0: a point
+    "altitude": (list, None, None),  # [min, max] of a flying robot's z in a 3-D world
+    "climb_rate": (_NUM, None, _positive),  # vertical speed cap of a flying robot (default: its speed)
+    "knows_map": (bool, False, None),  # ctx.map: the static map as prior knowledge
+    "obstacle_rays": (int, 0, _non_negative),  # ctx.rays: this many range rays to obstacles
     "behaviors": (list, [], None),
 }
 EVENT_ACTIONS = tuple(ACTIONS)  # one list of world actions: transport/messages.py
@@ -143,6 +152,7 @@ def resolve_scenario(raw: dict, source: str = "<scenario>", overrides: list[str]
     if radio["latency_min_s"] is not None and radio["latency_min_s"] > radio["latency_s"]:
         raise ScenarioError(source, "radio.latency_min_s", "must not exceed radio.latency_s")
     _check_world(out["world"], source)
+    _check_space(out["world"], source)
     groups = raw.get("robots")
     if not isinstance(groups, list) or not groups:
         raise ScenarioError(source, "robots", "give at least one [[robots]] group")
@@ -256,6 +266,94 @@ def _check_world(world: dict, source: str) -> None:
         obj["pos"] = _points([obj["pos"]], dims, source, f"{key}.pos", 1)[0].tolist()
 
 
+def _check_space(world: dict, source: str) -> None:
+    """Resolve ``world.obstacles`` (convex prisms, boxes, C shapes) and ``world.map`` (a file or a maze)."""
+    from swarmactors import maps
+    from transport.space import convex
+
+    resolved = []
+    for i, ob in enumerate(world["obstacles"]):
+        key = f"world.obstacles[{i}]"
+        if not isinstance(ob, dict):
+            raise ScenarioError(source, key, 'must be a table: {xy = [[x, y], ...]}, {box = [[x0, y0], [x1, y1]]} '
+                                             'or {c_shape = {center, size, thickness, opening}}, with z = [lo, hi]')
+        unknown = set(ob) - {"xy", "box", "c_shape", "z"}
+        if unknown or sum(k in ob for k in ("xy", "box", "c_shape")) != 1:
+            raise ScenarioError(source, key, "give exactly one of xy, box or c_shape (and optionally z)"
+                                + (f"; unknown key(s) {', '.join(sorted(unknown))}" if unknown else ""))
+        z = _extent(ob.get("z"), source, f"{key}.z")
+        if "c_shape" in ob:
+            c = ob["c_shape"]
+            if (not isinstance(c, dict) or set(c) - {"center", "size", "thickness", "opening"}
+                    or not {"center", "size", "thickness"} <= set(c) or c.get("opening", "+x") not in
+                    ("+x", "-x", "+y", "-y") or not all(is_num(c[k]) and c[k] > 0 for k in ("size", "thickness"))
+                    or c["thickness"] * 2 >= c["size"]):
+                raise ScenarioError(source, f"{key}.c_shape", "must be {center = [x, y], size = S, thickness = T "
+                                    "(0 < 2T < S), opening = \"+x\"|\"-x\"|\"+y\"|\"-y\"}")
+            center = _points([c["center"]], 2, source, f"{key}.c_shape.center", 1)[0].tolist()
+            resolved += maps.c_shape(center, float(c["size"]), float(c["thickness"]), c.get("opening", "+x"), z)
+            continue
+        if "box" in ob:
+            b = _points(ob["box"], 2, source, f"{key}.box", 2)
+            if np.any(b[0][:2] >= b[1][:2]):
+                raise ScenarioError(source, f"{key}.box", "must be [[x_min, y_min], [x_max, y_max]] with min < max")
+            resolved.append(maps.box(b[0].tolist(), b[1].tolist(), z))
+            continue
+        xy = ob["xy"]
+        if not isinstance(xy, list) or len(xy) < 3:
+            raise ScenarioError(source, f"{key}.xy", f"a polygon needs at least 3 vertices, got "
+                                f"{len(xy) if isinstance(xy, list) else xy!r}")
+        pts = _points(xy, 2, source, f"{key}.xy")[:, :2]
+        if not convex(pts):
+            raise ScenarioError(source, f"{key}.xy", "must be a convex polygon with non-zero area, vertices in "
+                                "order (split a non-convex obstacle into convex pieces)")
+        resolved.append({"xy": pts.tolist(), "z": z})
+    world["obstacles"] = resolved
+    m = world["map"]
+    if m is None:
+        return
+    if isinstance(m, str):
+        m = {"file": m}
+    known = {"file", "maze", "cell", "origin", "tree_height"}
+    if set(m) - known or ("file" in m) == ("maze" in m):
+        raise ScenarioError(source, "world.map", "must be a file name, or a table with exactly one of file or "
+                            f"maze (and cell, origin, tree_height); known keys: {', '.join(sorted(known))}")
+    cell = m.get("cell", 1.0)
+    if not is_num(cell) or cell <= 0:
+        raise ScenarioError(source, "world.map.cell", f"{cell!r} must be a positive number (length units per cell)")
+    origin = _points([m.get("origin", [0.0, 0.0])], 2, source, "world.map.origin", 1)[0][:2].tolist()
+    tree = m.get("tree_height")
+    if tree is not None and (not is_num(tree) or tree <= 0):
+        raise ScenarioError(source, "world.map.tree_height", f"{tree!r} must be a positive number")
+    if "file" in m:
+        path = Path(m["file"])
+        if not path.is_absolute() and source not in ("<scenario>", "--set"):
+            path = Path(source).parent / path
+        try:
+            world["map"] = maps.read_map(path, tree_height=tree, cell=float(cell), origin=origin)
+        except maps.MapError as exc:
+            raise ScenarioError(source, "world.map.file", str(exc)) from None
+        return
+    mz = m["maze"]
+    mkeys = {"cols", "rows", "seed", "corridor", "wall"}
+    if (not isinstance(mz, dict) or set(mz) - mkeys or not {"cols", "rows"} <= set(mz)
+            or not all(type(mz.get(k, 1)) is int and mz.get(k, 1) >= 1 for k in mkeys - {"seed"})):
+        raise ScenarioError(source, "world.map.maze", "must be {cols = C, rows = R} with positive integers "
+                            "(and seed, corridor = cells per corridor, wall = cells per wall)")
+    rows = maps.maze(mz["cols"], mz["rows"], int(mz.get("seed", 0)), mz.get("corridor", 2), mz.get("wall", 1))
+    world["map"] = maps.parse_map(["type octile", f"height {len(rows)}", f"width {len(rows[0])}", "map", *rows],
+                                  "maze", tree_height=tree, cell=float(cell), origin=origin)
+
+
+def _extent(z: Any, source: str, key: str) -> list | None:
+    """A vertical extent [lo, hi] (lo < hi) or None (every height)."""
+    if z is None:
+        return None
+    if not (isinstance(z, list) and len(z) == 2 and all(is_num(v) for v in z) and z[0] < z[1]):
+        raise ScenarioError(source, key, f"{z!r} must be [z_min, z_max] with z_min < z_max")
+    return [float(z[0]), float(z[1])]
+
+
 def _group(g: Any, where: str, sc: dict, source: str, rng: np.random.Generator) -> dict:
     if not isinstance(g, dict):
         raise ScenarioError(source, where, "must be a table")
@@ -271,8 +369,58 @@ def _group(g: Any, where: str, sc: dict, source: str, rng: np.random.Generator) 
         grp["placement"] = "explicit"
     else:
         grp["positions"] = _place(grp, sc, source, where, rng).tolist()
+    _check_body(grp, sc, source, where)
     grp["behaviors"] = [_behavior(b, f"{where}.behaviors[{i}]", source, grp) for i, b in enumerate(grp["behaviors"])]
     return grp
+
+
+def _check_body(grp: dict, sc: dict, source: str, where: str) -> None:
+    """Altitude limits of flying robots; ground robots at z = 0 in 3-D; no robot inside an obstacle."""
+    dims = sc["world"]["dims"]
+    alt = grp["altitude"]
+    if alt is not None:
+        if not (isinstance(alt, list) and len(alt) == 2 and all(is_num(v) for v in alt) and 0 <= alt[0] <= alt[1]):
+            raise ScenarioError(source, f"{where}.altitude", f"{alt!r} must be [min, max] with 0 <= min <= max")
+        if dims != 3 or grp["kind"] != "flying":
+            raise ScenarioError(source, f"{where}.altitude", "applies to flying robots in a 3-D world (world.dims = 3)")
+    if dims == 3:
+        pts = np.array(grp["positions"], dtype=float)
+        if grp["kind"] == "ground":
+            high = np.flatnonzero(pts[:, 2] != 0.0)
+            if grp["placement"] == "explicit" and high.size:
+                raise ScenarioError(source, f"{where}.positions[{high[0]}]", f"a ground robot stays at z = 0, not "
+                                    f"{pts[high[0], 2]:g} (give the group kind = \"flying\" to fly)")
+            pts[:, 2] = 0.0
+        elif alt is not None:
+            bad = np.flatnonzero((pts[:, 2] < alt[0]) | (pts[:, 2] > alt[1]))
+            if bad.size:
+                raise ScenarioError(source, f"{where}.positions[{bad[0]}]",
+                                    f"altitude {pts[bad[0], 2]:g} is outside {where}.altitude = {alt}")
+        grp["positions"] = pts.tolist()
+    space = _space_of(sc)
+    if space is None or (dims == 2 and grp["kind"] == "flying"):
+        return
+    inside = np.flatnonzero(space.inside(_as3d(grp["positions"]), ground=grp["kind"] == "ground"))
+    if inside.size:
+        p = grp["positions"][inside[0]]
+        raise ScenarioError(source, f"{where}.positions[{inside[0]}]",
+                            f"robot at {[round(v, 6) for v in p]} is inside an obstacle"
+                            + ("" if grp["placement"] == "explicit" else f" ({grp['placement']} placement)"))
+
+
+def _space_of(sc: dict):
+    """The run's obstacles as a ``transport.space.Space`` (None when there are none)."""
+    w = sc["world"]
+    if not w.get("obstacles") and not w.get("map"):
+        return None
+    from transport.space import space_from_spec
+
+    return space_from_spec(w)
+
+
+def _as3d(positions) -> np.ndarray:
+    p = np.asarray(positions, dtype=float)
+    return p if p.shape[1] == 3 else np.column_stack([p, np.zeros(len(p))])
 
 
 def _area(grp: dict, sc: dict, source: str, where: str) -> np.ndarray:
@@ -293,7 +441,16 @@ def _place(grp: dict, sc: dict, source: str, where: str, rng: np.random.Generato
     lo, hi = area[0], area[1]
     dims = len(lo)
     if rule == "uniform":
-        return lo + rng.random((n, dims)) * (hi - lo)
+        pts = lo + rng.random((n, dims)) * (hi - lo)
+        space = _space_of(sc)
+        if space is not None and not (dims == 2 and grp["kind"] == "flying"):
+            for _ in range(1000):  # redraw the robots that fell inside an obstacle
+                inside = np.flatnonzero(space.inside(_as3d(pts) * ([1, 1, 0] if grp["kind"] == "ground" else 1),
+                                                     ground=grp["kind"] == "ground"))
+                if inside.size == 0:
+                    break
+                pts[inside] = lo + rng.random((inside.size, dims)) * (hi - lo)
+        return pts
     spacing = grp["spacing"] if grp["spacing"] is not None else grp["range"] * 0.9
     pts = np.zeros((n, dims))
     if rule == "grid":
@@ -513,7 +670,8 @@ def to_raw(sc: dict) -> dict:
 
 def expand_group(grp: dict) -> list[dict]:
     """Per-robot specs for the world from one resolved group."""
-    fields = ("range", "sensing", "speed", "turn_rate", "noise", "heading", "kind", "behaviors")
+    fields = ("range", "sensing", "speed", "turn_rate", "noise", "heading", "kind", "body_radius", "altitude",
+              "climb_rate", "knows_map", "obstacle_rays", "behaviors")
     common = {k: grp[k] for k in fields if grp[k] is not None}
     return [{"pos": p, **common} for p in grp["positions"]]
 

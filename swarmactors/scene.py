@@ -51,6 +51,41 @@ def initial_positions(scenario: dict) -> dict[int, list[float]]:
     return out
 
 
+def space_document(sc: dict) -> dict | None:
+    """What the page draws of the world's space, sent once (``/api/space``).
+
+    Obstacles, the grid map as one plane (``@`` blocked at every height, ``+`` at some heights, ``W`` water),
+    body radii and flying robots.
+    """
+    world = sc.get("world", {}) if sc else {}
+    specs = [g for g in sc.get("robots", [])] if sc else []
+    radius, flying, rid = {}, [], 0
+    for g in specs:
+        for _ in range(g.get("count") or len(g.get("positions") or [])):
+            if g.get("body_radius"):
+                radius[str(rid)] = g["body_radius"]
+            if g.get("kind") == "flying":
+                flying.append(rid)
+            rid += 1
+    if not (world.get("obstacles") or world.get("map") or radius or flying):
+        return None
+    grid = None
+    m = world.get("map")
+    if m:
+        layers = m["layers"]
+        rows = []
+        for r in range(len(layers[0]["rows"])):
+            cells = []
+            for c in range(len(layers[0]["rows"][0])):
+                hits = [layer["rows"][r][c] == "@" for layer in layers]
+                wet = bool(m.get("water")) and m["water"][r][c] == "W"
+                cells.append("@" if all(hits) or (hits[0] and len(hits) == 1) else "+" if any(hits)
+                             else "W" if wet else ".")
+            rows.append("".join(cells))
+        grid = {"cell": m["cell"], "origin": m["origin"], "rows": rows}
+    return {"obstacles": world.get("obstacles") or [], "map": grid, "radius": radius, "flying": flying}
+
+
 class Scene:
     """The swarm as last seen: positions, status, failures, objects, counters, recent frames."""
 
@@ -64,6 +99,7 @@ class Scene:
         self.frames_available = frames_available
         world = sc.get("world", {})
         self.bounds = world.get("bounds")
+        self.space = space_document(sc)  # static: obstacles, map, bodies, flying robots (None: nothing to draw)
         self.objects: dict[str, list[float]] = {o["name"]: list(o["pos"]) for o in world.get("objects", [])}
         self.field = _plot_field(sc)
         self.ranges: dict[int, float] = initial_ranges(sc) if sc else {}
@@ -176,7 +212,8 @@ class Scene:
         for rid, d in sorted(self.dead.items()):
             if rid not in alive and d["pos"] is not None:
                 dead.append([rid, d["pos"][0], d["pos"][1], d["cause"], d["t"]])
-        robots = [[row[0], row[1], row[2], self.ranges.get(row[0], self.default_range)] for row in self.pos]
+        robots = [[row[0], row[1], row[2], self.ranges.get(row[0], self.default_range), *row[3:4]]
+                  for row in self.pos]  # [id, x, y, range(, z)]
         doc = {
             "type": "frame",
             "mode": self.mode,
@@ -185,6 +222,7 @@ class Scene:
             "t": self.t,
             "ticks": self.ticks,
             "bounds": self.bounds,
+            "space": self.space is not None,  # the page fetches /api/space once
             "field": self.field,
             "robots": robots,
             "status": {str(rid): to_jsonable(self.status.get(rid, {})) for rid in sorted(alive)},

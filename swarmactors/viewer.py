@@ -419,6 +419,7 @@ class ViewerServer:
         app.router.add_get("/static/{name}", self._static)
         app.router.add_get("/ws", self._ws)
         app.router.add_get("/api/frame", self._api_frame)
+        app.router.add_get("/api/space", self._api_space)
         app.router.add_get("/api/robot/{rid}", self._api_robot)
         app.router.add_get("/api/events.toml", self._api_events)
         app.router.add_post("/api/command", self._api_command)
@@ -470,6 +471,10 @@ class ViewerServer:
             except ValueError:
                 raise web.HTTPBadRequest(text=f"t={t!r} is not a tick") from None
         return web.Response(text=self.frame_text(), content_type="application/json")
+
+    async def _api_space(self, request: web.Request) -> web.Response:
+        """The world's static space (obstacles, map, bodies, flying robots): fetched once by the page."""
+        return web.json_response(self.source.scene.space or {})
 
     async def _api_robot(self, request: web.Request) -> web.Response:
         try:

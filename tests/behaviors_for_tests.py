@@ -197,3 +197,23 @@ class HostImports(Behavior):
         oracle = sorted(m for m in sys.modules
                         if m.split(".")[0] in {"networkx", "scipy"} or m.startswith("swarmactors.conformance"))
         return {"modules": oracle, "pid": os.getpid()}
+
+
+class SeesSpace(Behavior):
+    """Reports what ``ctx.map`` and ``ctx.rays`` tell it at its first tick (issue 14)."""
+
+    name = "sees_space"
+
+    def __init__(self):
+        self.seen = None
+
+    def on_tick(self, ctx, sensed):
+        if self.seen is None:
+            m = ctx.map
+            self.seen = {"knows": m is not None, "rays": None if ctx.rays is None else list(ctx.rays),
+                         "inside": None if m is None else m.inside([4.5, 5.0]),
+                         "clear": None if m is None else m.clear(ctx.position[:2], [8.0, 5.0]),
+                         "obstacles": None if m is None else len(m.obstacles)}
+
+    def report(self):
+        return {"seen": self.seen}

@@ -183,8 +183,9 @@ def test_viewer_page_in_a_real_browser(tmp_path, run):
             replayed = {r[0]: r[1:3] for r in a.evaluate("window.swarm.frame.robots")}
             assert replayed == seen[2]
             a.click("#export")
-            a.wait_for_function("document.getElementById('export-text').value.includes('kill = [5]')")
+            a.wait_for_function("document.getElementById('export-text').value.includes('[[events]]')")
             exported = a.input_value("#export-text")
+            assert [e["kill"] for e in tomllib.loads(exported)["events"] if "kill" in e] == [[5]], exported
             if os.environ.get("SWARMACTORS_VIEWER_SCREENSHOT"):
                 a.screenshot(path=os.environ["SWARMACTORS_VIEWER_SCREENSHOT"])
             assert not errors, errors
@@ -252,7 +253,7 @@ def test_remote_viewer_follows_and_controls_a_world_and_names_missing_runs(tmp_p
         assert _post(url, {"cmd": "step"})["ok"]
         frame = _until(lambda: (f := _get(url + "api/frame"))["t"] == paused_at + 1 and f, what="the step")
         assert [d[0] for d in frame["dead"]] == [2] and 2 not in [r[0] for r in frame["robots"]]
-        assert "kill = [2]" in _get(url + "api/events.toml")
+        assert tomllib.loads(_get(url + "api/events.toml"))["events"][0]["kill"] == [2]
         assert not _get(url + "api/robot/3")["frames_available"]
         assert _post(url, {"cmd": "stop"})["ok"]
         world.wait(timeout=60)
@@ -332,3 +333,51 @@ async def test_pages_that_stall_or_leave_do_not_hold_the_run(tmp_path):
     assert frames[-1] == 1499  # the replay that follows the run starts at its end
     assert len(frames) < 1500  # frames the page had no time for were skipped, not queued
     assert frames == sorted(frames)
+
+
+POINT_PIXEL = """([x, y]) => {
+  const [sx, sy] = window.swarm.screenOfPoint(x, y);
+  const c = document.getElementById('canvas'), r = c.getBoundingClientRect(), d = window.devicePixelRatio || 1;
+  return Array.from(c.getContext('2d').getImageData(Math.round((sx - r.left) * d), Math.round((sy - r.top) * d),
+                                                    1, 1).data);
+}"""
+
+
+def test_viewer_draws_the_maze_walls_where_the_world_has_them(tmp_path):
+    """The maze flood in a real browser (issue 14).
+
+    The grid map is fetched once and drawn: wall cells are grey on the page, corridor cells are not.
+    """
+    chromium = require_browser()
+    from playwright.sync_api import sync_playwright
+
+    scenario = Path(__file__).resolve().parent.parent / "scenarios" / "maze-flood.toml"
+    log = tmp_path / "cli.log"
+    proc = _start(["run", str(scenario), "--out", str(tmp_path / "out"), "--view", "--view-port", "0", "--quiet"],
+                  log)
+    sc = resolve_scenario(tomllib.loads(scenario.read_text()), str(scenario))
+    rows = sc["world"]["map"]["layers"][0]["rows"]
+    h = len(rows)
+    wall = next((c + 0.5, h - r - 0.5) for r, row in enumerate(rows) for c, ch in enumerate(row) if ch == "@")
+    robots = [tuple(p[:2]) for p in sc["robots"][0]["positions"]]
+    free = next((c + 0.5, h - r - 0.5) for r, row in enumerate(rows) for c, ch in enumerate(row)
+                if ch == "." and all(abs(c + 0.5 - x) > 1.0 or abs(h - r - 0.5 - y) > 1.0 for x, y in robots))
+    try:
+        url = _wait_url(proc, log)
+        with sync_playwright() as pw:
+            browser = pw.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
+            page = browser.new_page(viewport={"width": 1000, "height": 760})
+            errors: list[str] = []
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.goto(url)
+            page.wait_for_function("window.swarm && window.swarm.space && window.swarm.drawn.count > 1")
+            assert page.evaluate("window.swarm.space.map.rows.length") == h
+            r, g, b, alpha = page.evaluate(POINT_PIXEL, list(wall))
+            assert alpha > 150 and max(r, g, b) < 140 and abs(r - g) < 10, (r, g, b, alpha)  # grey wall
+            r, g, b, alpha = page.evaluate(POINT_PIXEL, list(free))
+            assert alpha < 20 or min(r, g, b) > 200, (r, g, b, alpha)  # an empty corridor cell: nothing drawn
+            assert not errors, errors
+            browser.close()
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)

@@ -25,7 +25,7 @@ PROTOCOL_VERSION = 2
 
 # Why the world did not deliver a frame to a robot (or refused a message): the counters, result.json,
 # the trace, the sweep CSV and the viewer all use these names.
-DROP_CAUSES = ("range", "loss", "cut", "bandwidth", "dead", "malformed")
+DROP_CAUSES = ("range", "loss", "cut", "occluded", "bandwidth", "dead", "malformed")
 # The last ``mal`` entry of a trace record whose tick had more malformed messages than were stored, then a count.
 MORE_MALFORMED = "and more malformed messages, not stored:"
 
@@ -67,6 +67,7 @@ class RobotDescr(_Message):
     range: float
     sensing: float
     speed: float
+    knows_map: bool = False  # the robot is given the run's static map (ctx.map)
 
 
 class RunInfo(_Message):
@@ -78,6 +79,7 @@ class RunInfo(_Message):
     ticks: int
     watchdog_s: float
     tick: int
+    map: dict[str, Any] | None = None  # the static map, for robots that know it: dims, obstacles, map (grid)
 
 
 class JoinReply(_Message):
@@ -147,6 +149,7 @@ class RobotIn(_Row):
     sensed: tuple[list[int], list[float]]
     inbox: list[int]
     objects: list[str] | None = None
+    rays: list[float] | None = None  # obstacle range rays (world/space.py), when the robot's group has them
 
 
 class Inputs(msgspec.Struct, tag="in", forbid_unknown_fields=True, omit_defaults=True):

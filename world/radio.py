@@ -9,6 +9,8 @@ at the send tick:
   destination and only if in range (else dropped as ``range``);
 * cuts and partitions - a frame over a cut link or between partition groups is
   dropped as ``cut``;
+* occlusion - with ``radio.occlusion``, a frame to a receiver in range that an
+  obstacle hides from the sender (world/space.py) is dropped as ``occluded``;
 * bandwidth - an optional cap of bytes per robot per tick; frames past it, in
   sending order, are dropped as ``bandwidth`` for every receiver;
 * loss - per (frame, receiver), from the counter-based generator:
@@ -44,6 +46,7 @@ class RadioConfig:
     model: str = "bernoulli"
     delta: float = 0.1
     bandwidth: int = 0  # bytes per robot per tick; 0 = unlimited
+    occlusion: bool = False  # obstacles block links (world/space.py)
 
     @classmethod
     def from_dict(cls, data: dict) -> RadioConfig:
@@ -107,10 +110,12 @@ class Medium:
         alive: np.ndarray,
         positions: np.ndarray,
         ranges: np.ndarray,
+        occluded: dict[int, np.ndarray] | None = None,
     ) -> tuple[list[tuple], list[tuple[int, int, int, str, str]]]:
         """Return ``(deliveries, drops)`` for frames sent at ``tick``.
 
-        ``in_range[src]`` lists the alive robots within ``src``'s range (sorted).
+        ``in_range[src]`` lists the alive robots within ``src``'s range (sorted); ``occluded[src]``, for a sender
+        an obstacle cuts off from some of them, is ``(heard, hidden)``: that list split by occlusion.
         A delivery is ``(receiver, src, seq, frame, tick)``; a drop is
         ``(src, seq, dst, kind, cause)``.
         """
@@ -122,10 +127,14 @@ class Medium:
         budget = self._budget
         n = len(alive)
         for f in frames:
+            split = occluded.get(f.src) if occluded else None
             if f.dst is None:
-                receivers = in_range[f.src]
+                receivers = in_range[f.src] if split is None else split[0]
                 if f.exclude:
                     receivers = receivers[~np.isin(receivers, f.exclude)]
+                if split is not None:
+                    hidden = split[1][~np.isin(split[1], f.exclude)] if f.exclude else split[1]
+                    drops.extend((f.src, f.seq, r, f.kind, "occluded") for r in hidden.tolist())
             else:
                 d = f.dst
                 if not (0 <= d < n) or not alive[d]:
@@ -133,6 +142,9 @@ class Medium:
                     continue
                 if np.linalg.norm(positions[d] - positions[f.src]) > ranges[f.src]:
                     drops.append((f.src, f.seq, d, f.kind, "range"))
+                    continue
+                if split is not None and (split[1] == d).any():
+                    drops.append((f.src, f.seq, d, f.kind, "occluded"))
                     continue
                 receivers = np.array([d], dtype=np.int64)
             if receivers.size == 0:

@@ -40,6 +40,12 @@ class Robots:
         self.speed = np.zeros(0)
         self.turn_rate = np.zeros(0)
         self.noise = np.zeros(0)
+        self.body = np.zeros(0)  # body radius (0: a point)
+        self.ground = np.zeros(0, dtype=bool)  # kind = "ground" (else flying)
+        self.alt_lo = np.zeros(0)  # a flying robot's altitude limits (3-D)
+        self.alt_hi = np.zeros(0)
+        self.climb = np.zeros(0)  # a flying robot's vertical speed cap
+        self.rays = np.zeros(0, dtype=np.int64)  # obstacle range rays
         self.spec: list[dict] = []
         self.host: list[str | None] = []
         self.deaths: dict[int, Death] = {}
@@ -67,6 +73,14 @@ class Robots:
         self.speed = np.concatenate([self.speed, col("speed", np.inf)])
         self.turn_rate = np.concatenate([self.turn_rate, col("turn_rate", np.inf)])
         self.noise = np.concatenate([self.noise, col("noise", 0.0)])
+        self.body = np.concatenate([self.body, col("body_radius", 0.0)])
+        self.ground = np.concatenate([self.ground, [s.get("kind", "ground") == "ground" for s in specs]]).astype(bool)
+        alt = [s.get("altitude") or [0.0, np.inf] for s in specs]
+        self.alt_lo = np.concatenate([self.alt_lo, [float(a[0]) for a in alt]])
+        self.alt_hi = np.concatenate([self.alt_hi, [float(a[1]) for a in alt]])
+        climb = [s.get("climb_rate") if s.get("climb_rate") is not None else s.get("speed", np.inf) for s in specs]
+        self.climb = np.concatenate([self.climb, np.array(climb, dtype=float)])
+        self.rays = np.concatenate([self.rays, [int(s.get("obstacle_rays", 0)) for s in specs]]).astype(np.int64)
         for rid, s in zip(ids, specs, strict=True):
             self.spec.append({**s, "id": rid})
             self.host.append(None)

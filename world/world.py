@@ -54,6 +54,7 @@ from transport.messages import (
     decode,
     encode,
 )
+from transport.space import space_from_spec
 from world import rng
 from world.clock import LockstepClock, RealtimeClock, make_clock
 from world.counters import Counters, TickRecord
@@ -62,6 +63,7 @@ from world.kinematics import MAX_COORD, bad_positions, integrate
 from world.radio import Medium, Outgoing, RadioConfig
 from world.registry import HostEntry, Robots
 from world.sensing import sense, within
+from world.space import SpaceRules
 from world.uplink import COUNTED_CRASHES, INVALID_POSITION, accept
 
 log = logging.getLogger(__name__)
@@ -113,6 +115,14 @@ class World:
         self.medium = Medium(self.radio, self.seed)
         self.robots = Robots(self.dims)
         self.robots.add(spec["robots"], tick=0)
+        # the rules of space (world/space.py): only when the run has obstacles, bodies or heights
+        self.space: SpaceRules | None = None
+        if (wspec.get("obstacles") or wspec.get("map") or self.dims == 3 or wspec.get("blocking")
+                or (self.robots.body > 0).any()):
+            self.space = SpaceRules(space_from_spec(wspec), self.dims, bool(self.radio.occlusion),
+                                    bool(wspec.get("blocking")))
+        self.known_map = ({"dims": self.dims, "obstacles": wspec.get("obstacles") or [], "map": wspec.get("map")}
+                          if any(s.get("knows_map") for s in spec["robots"]) else None)
         self.unclaimed: list[int] = list(range(len(self.robots)))
         self.hosts: dict[str, HostEntry] = {}
         self.counters = Counters()
@@ -145,6 +155,8 @@ class World:
         self._sensed: dict[int, tuple] = {}
         self._poses: list[list[float]] = []
         self._known: dict[int, list[str]] | None = None  # objects each robot knows this tick (None: all)
+        self._occluded: dict[int, tuple] = {}  # sender -> (heard, hidden): its reach split by obstacles
+        self._rays: dict[int, list[float]] = {}  # robot -> obstacle range-ray distances
 
     @property
     def tick(self) -> int:
@@ -205,6 +217,12 @@ class World:
             sensed_ids = within(self.robots.pos, alive, self.robots.sensing)
         self._sensed = sense(self.robots.pos, sensed_ids, self.robots.noise, self.seed, self.tick, POS_DIGITS)
         r = self.robots
+        self._occluded = self.space.hidden_by_sender(r.pos, self._reach) if self.space is not None else {}
+        self._rays = (self.space.rays(r.pos, r.heading, r.sensing, r.rays, alive)
+                      if self.space is not None and r.rays.any() else {})
+        if self.space is not None and r.body.any():
+            for episode in self.space.collisions(self.tick, r.pos, r):
+                self.record.event(self.tick, episode)
         self._poses = np.round(np.hstack([r.pos, r.heading[:, None]]), POS_DIGITS).tolist()
         self._known = self._known_objects()
 
@@ -244,10 +262,14 @@ class World:
             self.link.publish(self.keys.state, encode(state), reliable=False)
         if self.on_tick:
             self.on_tick(self)
+        before = self.robots.pos.copy() if self.space is not None else None
         integrate(
             self.robots.pos, self.robots.heading, self.robots.vel, self.robots.speed,
             self.robots.turn_rate, self.robots.alive, self.dt, self.bounds,
         )
+        if self.space is not None:
+            self.space.constrain(before, self.robots.pos, self.robots, self.dt)
+            self.space.unblock_bodies(before, self.robots.pos, self.robots)
         for rid in bad_positions(self.robots.pos, self.robots.alive).tolist():  # the robot crashes, the run goes on
             where = self.robots.pos[rid].tolist()
             np.clip(np.nan_to_num(self.robots.pos[rid]), -MAX_COORD, MAX_COORD, out=self.robots.pos[rid])
@@ -273,7 +295,7 @@ class World:
                     table.append(FrameIn(f.src, f.kind, f.seq, f.body, sent_tick))
                 refs.append(k)
             rows.append(RobotIn(rid, poses[rid], self._sensed.get(rid, _NOTHING), refs,
-                                None if known is None else known.get(rid, [])))
+                                None if known is None else known.get(rid, []), self._rays.get(rid)))
         msg = Inputs(self.tick, self.clock.now(), rows, table, self.objects)
         if not self.lockstep:
             msg.epoch = self.clock.epoch
@@ -342,7 +364,7 @@ class World:
             host.robots.add(rid)
         self.hosts[name] = host
         log.info("host %s joined with robots %s", name, ids)
-        run = RunInfo(self.clock.name, self.dt, self.seed, self.ticks, self.watchdog_s, self.tick)
+        run = RunInfo(self.clock.name, self.dt, self.seed, self.ticks, self.watchdog_s, self.tick, self.known_map)
         reply = encode(JoinReply(name, host.key, PROTOCOL_VERSION, [self._robot_descr(r) for r in ids], run))
         q.reply(seal(self.run_secret, reply) if self.run_secret else reply)
         self._check_ready()
@@ -355,7 +377,7 @@ class World:
         s = self.robots.spec[rid]
         return RobotDescr(rid, self.robots.pose(rid, POS_DIGITS), s.get("behaviors", []), s.get("kind", "ground"),
                           float(self.robots.range[rid]), float(self.robots.sensing[rid]),
-                          float(self.robots.speed[rid]))
+                          float(self.robots.speed[rid]), bool(s.get("knows_map", False)))
 
     def _placed_like(self, template: dict) -> dict:
         """A robot spec for a host joining mid-run: template parameters, random position in bounds."""
@@ -491,7 +513,7 @@ class World:
     def _transmit(self, frames: list[Outgoing]) -> None:
         """Step 5: decide receivers for frames sent now (from this tick's positions)."""
         deliveries, drops = self.medium.decide(
-            self.tick, frames, self._reach, self.robots.alive, self.robots.pos, self.robots.range
+            self.tick, frames, self._reach, self.robots.alive, self.robots.pos, self.robots.range, self._occluded
         )
         self.record.sent(frames)
         if drops:
@@ -739,6 +761,12 @@ class World:
             "stop_reason": self.stop_reason,
             "robots": robots,
             "reports": self.reports,
-            "world": {**self.counters.as_dict(), "per_robot": self.counters.per_robot(len(self.robots))},
+            "world": {**self.counters.as_dict(), "per_robot": self.counters.per_robot(len(self.robots)),
+                      **({"collisions": self._collision_summary()} if self.space is not None else {})},
             "objects": self.objects,
         }
+
+    def _collision_summary(self) -> dict:
+        """Collision counts and episodes for result.json (episodes still open end at the last tick)."""
+        self.space.close(max(self.ticks_done - 1, 0))
+        return self.space.summary()

@@ -62,6 +62,14 @@ function updateExtent(f) {
   if (f.bounds) e = { x0: f.bounds[0][0], y0: f.bounds[0][1], x1: f.bounds[1][0], y1: f.bounds[1][1] };
   const pts = f.robots.map((r) => [r[1], r[2]]).concat(f.dead.map((d) => [d[1], d[2]]))
     .concat(Object.values(f.objects || {}).map((p) => [p[0], p[1]]));
+  const sp = S.space;
+  if (sp) {  // obstacles and the map are in the picture too
+    for (const ob of sp.obstacles || []) pts.push(...ob.xy);
+    if (sp.map) {
+      const m = sp.map;
+      pts.push([m.origin[0], m.origin[1]], [m.origin[0] + m.rows[0].length * m.cell, m.origin[1] + m.rows.length * m.cell]);
+    }
+  }
   for (const [x, y] of pts) {
     if (!e) e = { x0: x, y0: y, x1: x, y1: y };
     e.x0 = Math.min(e.x0, x); e.y0 = Math.min(e.y0, y); e.x1 = Math.max(e.x1, x); e.y1 = Math.max(e.y1, y);
@@ -146,6 +154,7 @@ function render() {
     const [bx, by] = T.toScreen(f.bounds[1][0], f.bounds[1][1]);
     ctx.strokeStyle = "#ccc"; ctx.setLineDash([4, 4]); ctx.strokeRect(ax, by, bx - ax, ay - by); ctx.setLineDash([]);
   }
+  drawSpace(ctx, T, f);
   if ($("show-ranges").checked || S.selected !== null) {
     ctx.strokeStyle = "rgba(80,120,200,0.25)"; ctx.fillStyle = "rgba(80,120,200,0.04)";
     for (const r of f.robots) {
@@ -169,6 +178,7 @@ function render() {
     ctx.beginPath(); ctx.arc(x, y, ROBOT_PX, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
   }
   ctx.lineWidth = 1;
+  drawBodies(ctx, T, f);
   if (f.robots.length <= 300) {
     ctx.fillStyle = "#222"; ctx.font = "9px sans-serif"; ctx.textAlign = "center"; ctx.textBaseline = "middle";
     for (const r of f.robots) { const [x, y] = T.toScreen(r[1], r[2]); ctx.fillText(String(r[0]), x, y - ROBOT_PX - 6); }
@@ -193,6 +203,62 @@ function render() {
   while (S.draws.length && S.draws[0] < now - 1000) S.draws.shift();
   while (S.ticks.length && S.ticks[0][0] < now - 2000) S.ticks.shift();
   panel(f, field, col);
+}
+
+// The world's space (issue 14): fetched once from /api/space, drawn under the robots.
+function drawSpace(ctx, T, f) {
+  if (!f.space) return;
+  if (S.space === undefined) {
+    S.space = null;
+    fetch("/api/space").then((r) => r.json()).then((sp) => { S.space = sp; render(); });
+    return;
+  }
+  const sp = S.space;
+  if (!sp) return;
+  for (const ob of sp.obstacles || []) {
+    const lifted = ob.z && ob.z[0] !== null && ob.z[0] > 0;
+    ctx.beginPath();
+    ob.xy.forEach(([x, y], i) => { const [sx, sy] = T.toScreen(x, y); if (i) ctx.lineTo(sx, sy); else ctx.moveTo(sx, sy); });
+    ctx.closePath();
+    ctx.fillStyle = lifted ? "rgba(90,90,90,0.25)" : "rgba(90,90,90,0.7)";
+    ctx.strokeStyle = "#333"; ctx.fill(); ctx.stroke();
+  }
+  const m = sp.map;
+  if (m) {
+    if (!S.mapImage) {  // one pixel per cell, drawn scaled
+      const h = m.rows.length, w = m.rows[0].length;
+      const img = document.createElement("canvas"); img.width = w; img.height = h;
+      const g = img.getContext("2d"); const data = g.createImageData(w, h);
+      const colour = { "@": [70, 70, 70, 200], "+": [70, 70, 70, 90], "W": [70, 120, 220, 120], ".": [0, 0, 0, 0] };
+      m.rows.forEach((row, r) => { for (let c = 0; c < w; c++) data.data.set(colour[row[c]] || colour["."], (r * w + c) * 4); });
+      g.putImageData(data, 0, 0); S.mapImage = img;
+    }
+    const h = m.rows.length, w = m.rows[0].length;
+    const [ax, ay] = T.toScreen(m.origin[0], m.origin[1] + h * m.cell);
+    const [bx, by] = T.toScreen(m.origin[0] + w * m.cell, m.origin[1]);
+    ctx.imageSmoothingEnabled = false;
+    ctx.drawImage(S.mapImage, ax, ay, bx - ax, by - ay);
+  }
+}
+
+function drawBodies(ctx, T, f) {
+  const sp = S.space;
+  if (!sp) return;
+  const flying = new Set(sp.flying || []);
+  for (const r of f.robots) {
+    const [x, y] = T.toScreen(r[1], r[2]);
+    const rad = (sp.radius || {})[r[0]];
+    if (rad) { ctx.strokeStyle = "#555"; ctx.beginPath(); ctx.arc(x, y, rad * T.k, 0, 2 * Math.PI); ctx.stroke(); }
+    if (flying.has(r[0])) {  // a triangle over the disc, the altitude beside it
+      ctx.strokeStyle = "#1f77b4"; ctx.lineWidth = 1.5; ctx.beginPath();
+      ctx.moveTo(x, y - ROBOT_PX - 3); ctx.lineTo(x + ROBOT_PX + 2, y + ROBOT_PX); ctx.lineTo(x - ROBOT_PX - 2, y + ROBOT_PX);
+      ctx.closePath(); ctx.stroke(); ctx.lineWidth = 1;
+      if (r.length > 4 && f.robots.length <= 300) {
+        ctx.fillStyle = "#1f77b4"; ctx.font = "9px sans-serif"; ctx.textAlign = "left";
+        ctx.fillText("z=" + r[4].toFixed(1), x + ROBOT_PX + 3, y + ROBOT_PX + 3);
+      }
+    }
+  }
 }
 
 function drawLinks(ctx, T, f) {
@@ -454,6 +520,13 @@ window.swarm = {
   get frame() { return S.frame; },
   get drawn() { return S.drawn; },
   get structureEdges() { return S.structureEdges; },
+  get space() { return S.space; },
+  // A world point on the page (CSS pixels, relative to the viewport).
+  screenOfPoint(x, y) {
+    const [sx, sy] = transform().toScreen(x, y);
+    const box = $("canvas").getBoundingClientRect();
+    return [box.left + sx, box.top + sy];
+  },
   // The robot's position on the page (CSS pixels, relative to the viewport), for clicks in tests.
   screenOf(rid) {
     const r = S.frame && S.frame.robots.find((x) => x[0] === rid);

@@ -69,13 +69,16 @@ RUN = {
 RADIO = {
     "range": (NUMBER, 1.0), "latency": (INTEGER, 1), "latency_s": (NUMBER, 0.01), "latency_min_s": (NUMBER, None),
     "loss": (NUMBER, 0.0), "model": (STRING, "bernoulli"), "delta": (NUMBER, 0.1), "bandwidth": (INTEGER, 0),
+    "occlusion": (BOOLEAN, False),
 }
-WORLD = {"dims": (INTEGER, 2), "bounds": ("list", None), "objects": ("list", []), "max_robots": (INTEGER, 10_000)}
+WORLD = {"dims": (INTEGER, 2), "bounds": ("list", None), "objects": ("list", []), "max_robots": (INTEGER, 10_000),
+         "obstacles": ("list", []), "map": ("table", None), "blocking": (BOOLEAN, False)}
 GROUP = {
     "count": (INTEGER, None), "positions": ("list", None), "placement": (STRING, "uniform"), "area": ("list", None),
     "connected": (BOOLEAN, False), "spacing": (NUMBER, None), "range": (NUMBER, None), "sensing": (NUMBER, None),
     "speed": (NUMBER, None), "turn_rate": (NUMBER, None), "noise": (NUMBER, 0.0), "heading": (NUMBER, 0.0),
-    "kind": (STRING, "ground"), "behaviors": ("list", []),
+    "kind": (STRING, "ground"), "behaviors": ("list", []), "body_radius": (NUMBER, 0.0), "altitude": ("list", None),
+    "climb_rate": (NUMBER, None), "knows_map": (BOOLEAN, False), "obstacle_rays": (INTEGER, 0),
 }
 SECTIONS = {"run": RUN, "radio": RADIO, "world": WORLD}
 EVENT_ACTIONS = ["kill", "kill_fraction", "add", "cut", "restore", "partition", "heal", "loss", "move", "stop"]
@@ -94,6 +97,8 @@ VALID = {
     ("group", "count"): lambda v: v > 0, ("group", "spacing"): lambda v: v > 0, ("group", "range"): lambda v: v > 0,
     ("group", "sensing"): lambda v: v > 0, ("group", "speed"): lambda v: v > 0, ("group", "turn_rate"): lambda v: v > 0,
     ("group", "noise"): lambda v: v >= 0, ("group", "heading"): lambda v: True,
+    ("group", "body_radius"): lambda v: v >= 0, ("group", "climb_rate"): lambda v: v > 0,
+    ("group", "obstacle_rays"): lambda v: v >= 0,
 }
 ONE_OF = {("run", "clock"): ["lockstep", "realtime"], ("radio", "model"): ["bernoulli", "distance"],
           ("group", "placement"): ["uniform", "grid", "line", "ring"], ("group", "kind"): ["ground", "flying"]}
@@ -277,7 +282,8 @@ def test_ticks_from_duration(duration, dt, ticks):
 
 def test_positions_with_two_coordinates_in_3d_get_z_zero():
     sc = resolve_scenario(minimal(world={"dims": 3, "bounds": [[0, 0], [9, 9]]},
-                                  robots=[{"positions": [[1, 2], [3, 4]]}, {"positions": [[3, 4, 5]]}]), SRC)
+                                  robots=[{"positions": [[1, 2], [3, 4]]},
+                                          {"positions": [[3, 4, 5]], "kind": "flying"}]), SRC)
     assert [g["positions"] for g in sc["robots"]] == [[[1.0, 2.0, 0.0], [3.0, 4.0, 0.0]], [[3.0, 4.0, 5.0]]]
     assert sc["world"]["bounds"] == [[0.0, 0.0, 0.0], [9.0, 9.0, 0.0]]
 
