@@ -73,7 +73,7 @@ def jobs(quick: bool) -> list[dict]:
                     out.append({"K": 10, "seed": seed, "method": method, "p": p, "drop": drop,
                                 "ticks": TICKS[method] // (3 if quick else 1)})
     if not quick:
-        for k, graphs, ps in ((50, 2, PS), (100, 1, [0.0, 0.1, 0.3])):
+        for k, graphs, ps in ((50, 2, [0.0, 0.1, 0.3]), (100, 1, [0.0, 0.1, 0.3])):
             for method in ("pi1", "pi2", "wave"):
                 for p in ps:
                     for seed in range(1, graphs + 1):

@@ -51,6 +51,10 @@ CASE_PINS = {
     "flooding/rgg-20-s1": "e77f95691e729d29446986b355d78421",
     "flooding/rgg-20-s1-loss-0.2": "eeee4e48dc65490a7301525738599cf9",
     "flooding/line-8-killed-relay": "e1f8a7490962231401b02f4918b64bb8",
+    "lambda2/ring-8": "6e73e6fb91cf5980235635b58ad834e9",  # issue 17
+    "lambda2/rgg-10-s1": "0aad851e2878c9d0f98a0412066df846",  # issue 17
+    "lambda2/two-rings-6": "2477edfa3dd826279e67bd4f85cf15be",  # issue 17
+    "lambda2/rgg-10-s2-loss-0.1": "b271c1c74ea8329aeea0672351dcba69",  # issue 17
     "roles/patrol-10-s1": "6f80659879f356e28b7a34146d416650",
     "roles/patrol-20-s3": "ba7d21f9e85a205e5efff2c25361f9c4",
     "roles/patrol-10-s2-loss-0.1": "e29a4156897d3edea8964f84bc4e851b",

@@ -4,14 +4,17 @@ One iteration per tick. After iteration k every robot broadcasts one L2 frame {k
 s_i, plus what the method piggybacks); at iteration k + 1 it uses the values its neighbours sent.
 
 * R1 (drop = "drop", the authors' makeAnoisy) - only the frames that arrived since the last iteration are
-  used; a lost frame removes both its x_j and its share of the degree for that iteration.
+  used; a lost frame removes both its x_j and its share of the degree for that iteration. In realtime a
+  robot that heard nobody since its last iteration (a late tick, not a loss) uses the held values instead.
   (drop = "reuse") - the last value heard from each neighbour within ``hold`` iterations is used.
 * R2 - a frame that is not a dict of finite numbers, or whose k is from the future (k > own k, one more in
   realtime), is refused and counted by cause; it changes nothing.
 * R3 - warm-up (no ``dmax`` given): for ``warmup`` ticks robots count who they hear and flood the largest
   degree (max of theirs and what they hear); then d_max is frozen and iteration 0 starts.
-* PI1 - rules.pi1_phase/pi1_step; the beacon floods (epoch, norm) piggybacked (latest epoch wins) and
-  every robot divides by it ``flood`` iterations later.
+* PI1 - rules.pi1_phase/pi1_step; at the start of each period (an L step) the beacon computes its norm and
+  the period's length (rules.pi1_period, from its own estimate) and floods (epoch, norm, length) piggybacked
+  (latest epoch wins); every robot divides by the norm ``flood`` iterations later and starts the next
+  period when this one ends (``period`` iterations until it has heard the length).
 * PI2 - rules.pi2_phase: a power step w = x − γLx, then ``consensus`` steps of (I − εL) on (w, w²) in the
   same frames, then x = (w − mean)/RMS.
 * Wave - rules.wave_step on the robot's own signal; rules.wave_estimate on its FFT.
@@ -42,7 +45,7 @@ class Lambda2(Behavior):
     plot_field = "l2"
 
     def __init__(self, method: str = "pi1", drop: str = "drop", hold: int = 10, dmax: int | None = None,
-                 warmup: int = 12, period: int = 100, flood: int = 12, beacon: int = 0, consensus: int = 100,
+                 warmup: int = 12, period: int = 30, flood: int = 12, beacon: int = 0, consensus: int = 100,
                  window: int = 1024, at: int = 0):
         self.method, self.drop, self.hold, self.dmax = method, drop, hold, dmax
         self.warmup = 0 if dmax is not None else warmup
@@ -56,7 +59,8 @@ class Lambda2(Behavior):
         self.dm = 0  # warm-up max-degree flood
         self.estimates: list[float | None] = []
         self.refused: Counter = Counter()
-        self.norm = (-1, 1.0)  # PI1: latest (epoch, norm) known
+        self.norm = (-1, 1.0, period)  # PI1: latest (epoch, norm, period length) the beacon flooded
+        self.epoch, self.start, self.plen = -1, 1, 0  # PI1: current period, its first iteration, its length
         self.normalised = 0
         self.missed_norm = 0
         self.w = self.a = self.q = 0.0  # PI2 round state
@@ -71,24 +75,26 @@ class Lambda2(Behavior):
         d = params.get("drop", "drop")
         if d not in rules.DROPS:
             return f"drop = {d!r} must be one of {list(rules.DROPS)}"
-        for key, low in (("hold", 1), ("warmup", 1), ("period", 3), ("flood", 0), ("beacon", 0),
+        for key, low in (("hold", 1), ("warmup", 1), ("period", 5), ("flood", 0), ("beacon", 0),
                          ("consensus", 1), ("window", 16), ("at", 0), ("dmax", 1)):
             v = params.get(key)
             if v is not None and (not isinstance(v, int) or isinstance(v, bool) or v < low):
                 return f"{key} = {v!r} must be an integer >= {low}"
-        if params.get("flood", 12) + 2 > params.get("period", 100):
-            return f"flood = {params.get('flood', 12)} must be at most period - 2 = {params.get('period', 100) - 2}"
+        if params.get("flood", 12) + 3 > params.get("period", 30):
+            return f"flood = {params.get('flood', 12)} must be at most period - 3 = {params.get('period', 30) - 3}"
         return None
 
     # -------------------------------------------------------------- receive
     def on_frame(self, ctx: Context, frame: Frame) -> None:
         body = frame.body
-        if not isinstance(body, dict) or not isinstance(body.get("k"), int) or isinstance(body.get("k"), bool):
+        if (not isinstance(body, dict) or not isinstance(body.get("k"), int) or isinstance(body.get("k"), bool)
+                or "v" not in body):
             self.refused["malformed"] += 1
             return
         for key, v in body.items():
             if key == "n":
-                ok = isinstance(v, list) and len(v) == 2 and isinstance(v[0], int) and _finite(v[1]) and v[1] > 0
+                ok = (isinstance(v, list) and len(v) == 3 and isinstance(v[0], int) and _finite(v[1]) and v[1] > 0
+                      and isinstance(v[2], int) and v[2] > self.flood + 2)
             else:
                 ok = _finite(v)
             if not ok:  # R2: a value that is not a finite number
@@ -107,11 +113,11 @@ class Lambda2(Behavior):
         if "dm" in body:
             self.dm = max(self.dm, int(body["dm"]))
         if "n" in body and body["n"][0] > self.norm[0]:  # PI1 flood: the latest epoch wins
-            self.norm = (body["n"][0], float(body["n"][1]))
+            self.norm = (body["n"][0], float(body["n"][1]), body["n"][2])
 
-    def _neighbours(self) -> list[tuple[int, dict]]:
-        """R1: the bodies used this iteration, by neighbour id."""
-        if self.drop == "drop":
+    def _neighbours(self, realtime: bool) -> list[tuple[int, dict]]:
+        """R1: the bodies used this iteration, by neighbour id (realtime, none fresh: the held ones)."""
+        if self.drop == "drop" and (self.fresh or not realtime):
             ids = sorted(self.fresh)
         else:
             ids = sorted(j for j, (k, _) in self.heard.items() if self.k - k < self.hold)
@@ -125,7 +131,7 @@ class Lambda2(Behavior):
         k = ctx.tick - self.at - self.warmup
         if ctx.tick < self.at or k <= self.k:
             return
-        nbrs = self._neighbours()
+        nbrs = self._neighbours(ctx.clock == "realtime")
         self.fresh = set()
         self.ever.update(j for j, _ in nbrs)
         self.k = k
@@ -150,15 +156,20 @@ class Lambda2(Behavior):
 
     def _pi1(self, ctx: Context, nbrs, values, lx) -> float | None:
         est = rules.ratio_estimate(self.x, lx)
-        phase = rules.pi1_phase(self.k, self.period, self.flood)
-        epoch = (self.k - 1) // self.period
-        if ctx.id == self.beacon and (self.k - 1) % self.period == 1:  # values are post-L: the beacon's norm
+        r = self.k - self.start
+        if r >= self.plen:  # a new period: its L step; its length is the default until the beacon's flood
+            self.epoch, self.start, self.plen, r = self.epoch + 1, self.k, self.period, 0
+        if self.norm[0] == self.epoch:
+            self.plen = self.norm[2]
+        phase = rules.pi1_phase(r, self.flood)
+        if ctx.id == self.beacon and r == 1:  # values are post-L: the beacon's norm and this period's length
             norm = rules.beacon_norm(self.x, values)
             if norm > 0.0 and math.isfinite(norm):  # nothing heard and x_b = 0: no norm this period
-                self.norm = (epoch, norm)
+                self.plen = rules.pi1_period(est, self.gamma, self.flood, self.period)
+                self.norm = (self.epoch, norm, self.plen)
         self.x = rules.pi1_step(self.x, lx, phase, self.gamma)
         if phase == "GN":
-            if self.norm[0] == epoch:
+            if self.norm[0] == self.epoch:
                 self.x /= self.norm[1]
                 self.normalised += 1
             else:
@@ -191,7 +202,7 @@ class Lambda2(Behavior):
     def _send(self, ctx: Context) -> None:
         body = {"k": self.k, "v": self.x}
         if self.method == "pi1" and self.norm[0] >= 0:
-            body["n"] = [self.norm[0], self.norm[1]]
+            body["n"] = list(self.norm)
         elif self.method == "pi2":
             body.update(a=self.a, q=self.q)
         ctx.broadcast(KIND, body)

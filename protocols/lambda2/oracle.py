@@ -98,7 +98,8 @@ def accurate(result: Result, tol: float = 1.0, within: int | None = None, name: 
                        f"within {tol} % from iteration {at}")
     disconnected = len(components(result)) > 1
     head = "disconnected: λ2 = 0; per component: " if disconnected else ""
-    return [Outcome("lambda2.accurate", ok and bool(details), value=round(worst, 6), bound=tol,
+    return [Outcome("lambda2.accurate", ok and bool(details), value=round(worst, 6) if math.isfinite(worst) else None,
+                    bound=tol,
                     detail=head + "; ".join(details) if details else "no component of two robots with estimates",
                     first_tick=None if ok else first_bad)]
 

@@ -37,19 +37,32 @@ def step_size(dmax: int) -> float:
 
 
 # ------------------------------------------------------------------ PI1 (Bertrand & Moonen [11])
-def pi1_phase(k: int, period: int, flood: int) -> str:
-    """Return what iteration k ≥ 1 does in PI1: "L", "G" or "GN".
+def pi1_phase(r: int, flood: int) -> str:
+    """Return what PI1 does at position r of its period: "L", "GN" or "G".
 
-    "L": x ← Lx (deflates the constant vector), once every ``period`` iterations; "G": x ← (I − γL)x;
-    "GN": a G step, then the division by the beacon's norm of this period.
-    The beacon starts the flood at r = 1 and the others divide at r = flood + 1 (r = (k − 1) mod period).
+    "L" (r = 0): x ← Lx, which removes the constant vector's component (rounding error makes it grow by
+    1/(1 − γλ2) per G step); "GN" (r = flood + 1): a G step, then the division by the beacon's norm, which
+    the beacon computed at r = 1 and flooded since; "G": x ← (I − γL)x.
     """
-    r = (k - 1) % period
     if r == 0:
         return "L"
     if r == flood + 1:
         return "GN"
     return "G"
+
+
+def pi1_period(estimate: float | None, gamma: float, flood: int, default: int, gain: float = 10.0,
+               longest: int = 5000) -> int:
+    """Length of the next PI1 period, chosen by the beacon from its own estimate λ̂_b: ceil(gain/(γ·λ̂_b)).
+
+    Between two L steps the constant component grows by about exp(γ·λ2·P) and the L step amplifies a mode
+    λ_m against λ2 by λ_m/λ2 while the G steps damp it by exp(−γ(λ_m − λ2)·P): γ·λ2·P = 10 keeps the first
+    below 10⁵ (from 10⁻¹⁶) and makes the second shrink for every λ_m > λ2. Clipped to [flood + 3, longest];
+    ``default`` without a usable estimate.
+    """
+    if estimate is None or not math.isfinite(estimate) or estimate <= 0.0:
+        return max(default, flood + 3)
+    return int(min(max(math.ceil(gain / (gamma * estimate)), flood + 3), longest))
 
 
 def pi1_step(x_i: float, lx_i: float, phase: str, gamma: float) -> float:

@@ -61,10 +61,14 @@ def test_step_size_keeps_i_minus_gamma_l_in_zero_one(name):
 
 
 def test_pi1_phase_schedule():
-    ph = [rules.pi1_phase(k, 10, 3) for k in range(1, 22)]
-    assert ph[0] == "L" and ph[10] == "L" and ph[20] == "L"
-    assert ph[4] == "GN" and ph[14] == "GN"  # r = flood + 1 = 4
-    assert ph.count("G") == 21 - 3 - 2
+    assert [rules.pi1_phase(r, 3) for r in range(7)] == ["L", "G", "G", "G", "GN", "G", "G"]
+
+
+def test_pi1_period_from_the_beacons_estimate():
+    assert rules.pi1_period(0.5, 0.1, 12, 30) == 200  # gamma * lambda * P = 10
+    assert rules.pi1_period(100.0, 0.1, 12, 30) == 15  # at least flood + 3
+    assert rules.pi1_period(1e-9, 0.1, 12, 30) == 5000  # at most 5000
+    assert rules.pi1_period(None, 0.1, 12, 30) == 30 and rules.pi1_period(-1.0, 0.1, 12, 30) == 30
 
 
 def test_pi1_step_is_l_or_i_minus_gamma_l():
@@ -77,27 +81,30 @@ def test_pi1_step_is_l_or_i_minus_gamma_l():
                        (np.eye(len(g)) - gamma * lap(g)) @ x)
 
 
-def simulate_pi1(g: nx.Graph, iters: int, period: int = 100, flood: int = 3) -> list[float]:
-    """Every robot runs the PI1 rules synchronously without loss; the beacon (0) norm reaches all at once."""
+def simulate_pi1(g: nx.Graph, iters: int, period: int = 30, flood: int = 3) -> list[float]:
+    """Every robot runs the PI1 rules synchronously without loss; the beacon's (0) flood reaches all at once."""
     n = len(g)
-    dmax = max(d for _, d in g.degree())
-    gamma = rules.step_size(dmax)
+    gamma = rules.step_size(max(d for _, d in g.degree()))
     x = np.random.default_rng(5).uniform(size=n)
-    norm = 1.0
+    norm, start, plen = 1.0, 1, period
     med = []
     for k in range(1, iters + 1):
         lx = rows(g, x)
-        med.append(float(np.median([e for i in range(n) if (e := rules.ratio_estimate(x[i], lx[i])) is not None])))
-        phase = rules.pi1_phase(k, period, flood)
-        if (k - 1) % period == 1:
+        ests = [rules.ratio_estimate(x[i], lx[i]) for i in range(n)]
+        med.append(float(np.median([e for e in ests if e is not None])))
+        if k - start >= plen:
+            start, plen = k, period
+        phase = rules.pi1_phase(k - start, flood)
+        if k - start == 1:
             norm = rules.beacon_norm(x[0], [x[j] for j in sorted(g[0])])
+            plen = rules.pi1_period(ests[0], gamma, flood, period)
         x = np.array([rules.pi1_step(x[i], lx[i], phase, gamma) for i in range(n)])
         if phase == "GN":
             x = x / norm
     return med
 
 
-@pytest.mark.parametrize("name", ["path-5", "ring-6", "star-6", "rgg-12"])
+@pytest.mark.parametrize("name", sorted(GRAPHS))
 def test_pi1_rules_converge_to_lambda2(name):
     g = GRAPHS[name]
     med = simulate_pi1(g, 400)
