@@ -12,6 +12,7 @@ from __future__ import annotations
 import copy
 import inspect
 import math
+import re
 import tomllib
 from collections.abc import Callable
 from pathlib import Path
@@ -53,10 +54,12 @@ def _one_of(*options):
 
 
 _NUM = (int, float)
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")  # a run name is a directory name: no separators, no parent
+_NAME_RULE = "must be 1 to 64 letters, digits, '.', '_' or '-', starting with a letter or digit (it names a directory)"
 
 SCHEMA: dict[str, dict[str, tuple]] = {
     "run": {
-        "name": (str, "run", None),
+        "name": (str, "run", lambda v: None if _NAME.fullmatch(v) else _NAME_RULE),
         "seed": (int, 0, _non_negative),
         "clock": (str, "lockstep", _one_of("lockstep", "realtime")),
         "ticks": (int, None, _positive),
@@ -81,7 +84,9 @@ SCHEMA: dict[str, dict[str, tuple]] = {
     },
     "world": {
         "dims": (int, 2, _one_of(2, 3)),
-        "max_robots": (int, 10_000, _positive),  # robots a run may hold, joins and adds included (issue 27)
+        # robots a run may hold, joins and adds included (issue 27)
+        "max_robots": (int, 10_000, lambda v: None if 1 <= v <= MAX_ROBOTS_LIMIT else
+                       f"must be in 1..{MAX_ROBOTS_LIMIT}"),
         "bounds": (list, None, None),
         "objects": (list, [], None),
         "obstacles": (list, [], None),  # convex prisms (swarmactors/maps.py, transport/space.py)
@@ -111,6 +116,8 @@ GROUP: dict[str, tuple] = {
     "behaviors": (list, [], None),
 }
 EVENT_ACTIONS = tuple(ACTIONS)  # one list of world actions: transport/messages.py
+MAX_FILE_BYTES = 16 * 1024 * 1024  # a scenario file larger than this is refused before it is parsed
+MAX_ROBOTS_LIMIT = 1_000_000  # the largest world.max_robots a scenario may ask for
 
 
 def load(path: str | Path, overrides: list[str] = ()) -> dict:
@@ -120,12 +127,22 @@ def load(path: str | Path, overrides: list[str] = ()) -> dict:
 
 def read_raw(path: str | Path) -> dict:
     """The scenario file at ``path`` as parsed TOML (``ScenarioError`` naming the file)."""
+    p = Path(path)
     try:
-        return tomllib.loads(Path(path).read_text())
+        size = p.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise ScenarioError(str(path), "file", f"{size} bytes: larger than the {MAX_FILE_BYTES} a scenario may be")
+        return tomllib.loads(p.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise ScenarioError(str(path), "file", "no such file") from None
+    except IsADirectoryError:
+        raise ScenarioError(str(path), "file", "is a directory, not a scenario file") from None
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(str(path), "file", f"not UTF-8 text (byte {exc.start}: {exc.reason})") from None
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(str(path), "syntax", str(exc)) from None
+    except RecursionError:
+        raise ScenarioError(str(path), "syntax", "arrays or tables nested too deeply") from None
 
 
 def resolve_scenario(raw: dict, source: str = "<scenario>", overrides: list[str] = ()) -> dict:
@@ -156,6 +173,7 @@ def resolve_scenario(raw: dict, source: str = "<scenario>", overrides: list[str]
     groups = raw.get("robots")
     if not isinstance(groups, list) or not groups:
         raise ScenarioError(source, "robots", "give at least one [[robots]] group")
+    _check_sizes(groups, raw.get("events", []), out["world"]["max_robots"], source)
     rng = np.random.default_rng([run["seed"], 0x5CE7])
     out["robots"] = [_group(g, f"robots[{i}]", out, source, rng) for i, g in enumerate(groups)]
     _connect_groups(out, source, rng)
@@ -246,8 +264,9 @@ def _check_world(world: dict, source: str) -> None:
     dims = world["dims"]
     if world["bounds"] is not None:
         b = _points(world["bounds"], dims, source, "world.bounds", 2)
-        if np.any(b[0][:2] >= b[1][:2]):
-            raise ScenarioError(source, "world.bounds", "must be [[min...], [max...]] with min < max")
+        if np.any(b[0][:2] >= b[1][:2]) or np.any(b[0][2:] > b[1][2:]):
+            raise ScenarioError(source, "world.bounds", "must be [[min...], [max...]] with min < max "
+                                "(z: min <= max)")
         world["bounds"] = b.tolist()
     names = set()
     for i, obj in enumerate(world["objects"]):
@@ -264,6 +283,30 @@ def _check_world(world: dict, source: str) -> None:
             raise ScenarioError(source, key, f"duplicate object name {obj['name']!r}")
         names.add(obj["name"])
         obj["pos"] = _points([obj["pos"]], dims, source, f"{key}.pos", 1)[0].tolist()
+
+
+def _check_sizes(groups: list, events: Any, limit: int, source: str) -> None:
+    """Robot counts (groups, then ``add`` events) stay within ``world.max_robots``, checked before allocating.
+
+    A scenario asking for 10**9 robots is refused at once, naming the key.
+    """
+    total = 0
+    items = [(f"robots[{i}]", g) for i, g in enumerate(groups)]
+    if isinstance(events, list):
+        items += [(f"events[{i}].add", e["add"]) for i, e in enumerate(events) if isinstance(e, dict)
+                  and isinstance(e.get("add"), dict)]
+    for where, g in items:
+        if not isinstance(g, dict):
+            continue
+        n = g.get("count")
+        if n is None and isinstance(g.get("positions"), list):
+            n = len(g["positions"])
+        if not isinstance(n, int) or isinstance(n, bool):
+            continue  # the group's own validation names the problem
+        total += max(n, 0)
+        if total > limit:
+            key = f"{where}.count" if "count" in g else f"{where}.positions"
+            raise ScenarioError(source, key, f"{n} robots bring the run to {total}, above world.max_robots = {limit}")
 
 
 def _check_space(world: dict, source: str) -> None:

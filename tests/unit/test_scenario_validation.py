@@ -410,11 +410,11 @@ def test_override_values_are_read_as_toml_else_as_strings():
     sc = resolve_scenario(raw, SRC, [
         "radio.loss=0.1", "run.ticks=9", "run.trace=false", "run.name=lossy", 'run.clock="realtime"',
         "world.bounds=[[0, 0], [6, 6]]", "robots.0.count=4", "robots.0.behaviors.0.expiry=3",
-        'checks=[{use = "flooding.reach"}]', "run.name=hello world",
+        'checks=[{use = "flooding.reach"}]', "run.name=hello-world.v2",
     ])
     assert raw == before  # the caller's dict is left alone
     assert sc["radio"]["loss"] == 0.1 and sc["run"]["ticks"] == 9 and sc["run"]["trace"] is False
-    assert sc["run"]["name"] == "hello world"  # not TOML: a string; the later override wins
+    assert sc["run"]["name"] == "hello-world.v2"  # not TOML: a string; the later override wins
     assert sc["run"]["clock"] == "realtime"
     assert sc["world"]["bounds"] == [[0.0, 0.0], [6.0, 6.0]]
     assert sc["robots"][0]["count"] == 4 and len(sc["robots"][0]["positions"]) == 4
