@@ -28,6 +28,7 @@ SCENARIO_PINS = {
     "biconnectivity-check.toml": "336f63f143200f834e4fab2102420c15",
     "cbaa.toml": "da5540292cc58ef9571fac36f37345e6",
     "flooding.toml": "0e3ad8f9bd65636fa622d3e3bbc9e90f",
+    "lambda2.toml": "a4c95f6c6a3b3fce0b233ecc21cb8ea8",  # issue 17
     "ground-and-flying.toml": "1a475b9f3bfbd6a2db826bd055a835b2",  # issue 14
     "maze-flood.toml": "1f0ccd0251fecf9d90283cb287b8349a",  # issue 14
     "roles-aat.toml": "84e75f28cd9855bc0ecee67eb2b85352",
