@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from swarmactors.scene import Scene
-from swarmactors.trace import TraceError, read_trace
+from swarmactors.trace import TraceError, hash_problem, read_trace
 
 CHECKPOINT_EVERY = 64
 
@@ -27,7 +27,12 @@ CHECKPOINT_EVERY = 64
 class Replay:
     """A trace file as a sequence of scenes."""
 
-    def __init__(self, trace: str | Path):
+    def __init__(self, trace: str | Path, verify: bool = True):
+        """Read ``trace``.
+
+        With ``verify`` a trace whose hashes do not match is refused (TraceError); without it the replay goes on
+        with a warning in ``note``.
+        """
         self.path = Path(trace)
         header, records, footer = read_trace(self.path)  # TraceError names the file and the offset
         if header is None:
@@ -41,6 +46,11 @@ class Replay:
         self.last = records[-1]["t"]
         self._ticks = [r["t"] for r in records]
         self.note = None if footer is not None else "this trace has no footer: the run was cut short"
+        problem = hash_problem(header, records, footer)
+        if problem and verify:
+            raise TraceError(f"{self.path}: {problem}; replay --no-verify shows it anyway")
+        if problem:
+            self.note = f"warning: {problem}"
         self.result = self._result_beside()
         sc = header.get("scenario") or {}
         self._base = Scene(run_id=header.get("run_id", ""), clock=header.get("clock", "lockstep"),
@@ -62,8 +72,10 @@ class Replay:
             data = json.loads(path.read_text())
         except (OSError, ValueError):
             return None
-        if data.get("run_id") != self.header.get("run_id"):
-            return None  # another run's result
+        from swarmactors.result import result_problem
+
+        if result_problem(data) or data.get("run_id") != self.header.get("run_id"):
+            return None  # edited beyond use, or another run's result: the trace alone is replayed
         return data
 
     def scene_at(self, t: int) -> Scene:

@@ -62,6 +62,27 @@ def to_jsonable(obj: Any) -> Any:
     return obj
 
 
+class ResultError(ValueError):
+    """A result.json that cannot be used; the message names the file and the key."""
+
+
+def result_problem(data: Any) -> str | None:
+    """What is wrong with the shape of a result.json document (None: nothing); docs/result.md is the schema."""
+    if not isinstance(data, dict):
+        return f"the document is a {type(data).__name__}, not a map"
+    shapes = {"scenario": dict, "robots": dict, "world": dict, "checks": list}
+    for key, typ in shapes.items():
+        if key in data and not isinstance(data[key], typ):
+            return f"'{key}' is a {type(data[key]).__name__}, not a {typ.__name__}"
+    for rid, robot in (data.get("robots") or {}).items():
+        if not str(rid).lstrip("-").isdigit() or not isinstance(robot, dict):
+            return f"robots[{rid!r}] is not a robot id with a map"
+    for i, check in enumerate(data.get("checks") or []):
+        if not isinstance(check, dict) or not isinstance(check.get("name"), str):
+            return f"checks[{i}] is not a map with a name"
+    return None
+
+
 class Result:
     """A run's result.json with helpers (also what ``swarmactors.run`` returns)."""
 
@@ -71,10 +92,20 @@ class Result:
 
     @classmethod
     def load(cls, path: str | Path) -> Result:
+        """Read a run's result.json (or the one in a run directory); ResultError names the file and what is wrong."""
         path = Path(path)
         if path.is_dir():
             path = path / "result.json"
-        return cls(json.loads(path.read_text()), path)
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except OSError as exc:
+            raise ResultError(f"{path}: cannot read: {exc.strerror or exc}") from None
+        except ValueError as exc:
+            raise ResultError(f"{path}: not JSON: {exc}") from None
+        problem = result_problem(data)
+        if problem:
+            raise ResultError(f"{path}: {problem}")
+        return cls(data, path)
 
     def __getitem__(self, key: str) -> Any:
         return self.data[key]

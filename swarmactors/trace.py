@@ -10,12 +10,15 @@ tick, and a footer map. Schema (docs/trace.md):
   sent_tick], ...], "drop": [[src, seq, dst, cause], ...], "status": {id:
   {field: value}} (changes only), "ev": [event, ...], "mal": [reason, ...]}``
   (empty lists are left out);
-* footer: ``{"end": true, "ticks", "trace_hash"}``.
+* footer: ``{"end": true, "ticks", "trace_hash", "header_hash"}``.
 
 ``trace_hash`` is a BLAKE2b-128 digest over the canonical msgpack encoding of
 every tick record, in tick order. Records are canonical by construction (lists
 sorted, maps keyed in id order) and hold no wall-clock value, so the hash is a
-function of what happened only.
+function of what happened only. ``header_hash`` is the same digest of the
+header as written (it holds the run id and the scenario, so it is kept apart from
+``trace_hash``, which must not depend on the run id); ``verify`` and the replay
+check both, so an edited header or record does not go unnoticed.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ import hashlib
 from collections.abc import Iterator
 from operator import itemgetter
 from pathlib import Path
+from typing import Any
 
 import msgpack
 
@@ -55,6 +59,35 @@ def canonical(rec: dict) -> dict:
     return out
 
 
+def digest(obj: Any) -> str:
+    """BLAKE2b-128 of an object's msgpack encoding (the trace's one hash function)."""
+    return hashlib.blake2b(pack(obj), digest_size=16).hexdigest()
+
+
+_NUMBER = (int, float)
+
+
+def record_problem(rec: dict) -> str | None:
+    """What is wrong with the shape of a tick record (None: nothing); docs/trace.md is the schema."""
+    rows = {"pos": 3, "sent": 5, "del": 4, "drop": 4}
+    for key, width in rows.items():
+        value = rec.get(key, [])
+        if not isinstance(value, list):
+            return f"'{key}' is a {type(value).__name__}, not a list"
+        for row in value:
+            if not isinstance(row, list) or len(row) < width or not isinstance(row[0], int):
+                return f"'{key}' holds {row!r}, not a row of {width} or more fields starting with a robot id"
+    if not all(isinstance(v, _NUMBER) and not isinstance(v, bool) for row in rec.get("pos", []) for v in row[1:]):
+        return "'pos' holds a coordinate that is not a number"
+    status = rec.get("status", {})
+    if not isinstance(status, dict) or not all(isinstance(v, dict) for v in status.values()):
+        return "'status' is not a map of robot id to a map of fields"
+    for key in ("ev", "mal"):
+        if not isinstance(rec.get(key, []), list):
+            return f"'{key}' is not a list"
+    return None
+
+
 class TraceHasher:
     """Running digest of canonical tick records."""
 
@@ -80,11 +113,14 @@ class TraceWriter:
         self.hasher = TraceHasher()
         self.ticks = 0
         self.error: str | None = None
+        self.header_hash: str | None = None
         self._file = None
         if path is not None:
             try:
                 self._file = open(path, "wb", buffering=1 << 20)
-                self._file.write(pack({"trace": "swarmactors", "version": VERSION, **header}))
+                head = {"trace": "swarmactors", "version": VERSION, **header}
+                self.header_hash = digest(head)
+                self._file.write(pack(head))
             except OSError as exc:
                 self._fail(exc)
 
@@ -114,7 +150,8 @@ class TraceWriter:
     def close(self) -> None:
         if self._file is not None:
             try:
-                self._file.write(pack({"end": True, "ticks": self.ticks, "trace_hash": self.trace_hash}))
+                self._file.write(pack({"end": True, "ticks": self.ticks, "trace_hash": self.trace_hash,
+                                       "header_hash": self.header_hash}))
                 self._file.close()
             except OSError as exc:
                 self._fail(exc)
@@ -166,20 +203,36 @@ def iter_trace(path: str | Path) -> Iterator[dict]:
                 if obj.get("version") != VERSION:
                     raise TraceError(f"{path}: trace version {obj.get('version')!r}, this reader knows {VERSION}")
                 first = False
-            elif not obj.get("end") and not isinstance(obj.get("t"), int):
-                raise TraceError(f"{path}: byte offset {offset}: tick record without an integer 't'")
+            elif not obj.get("end"):
+                if not isinstance(obj.get("t"), int):
+                    raise TraceError(f"{path}: byte offset {offset}: tick record without an integer 't'")
+                problem = record_problem(obj)
+                if problem:
+                    raise TraceError(f"{path}: byte offset {offset}: tick {obj['t']}: {problem}")
             offset = unpacker.tell()
             yield obj
 
 
-def verify(path: str | Path) -> str:
-    """Recompute the hash of a trace file and compare it with its footer's."""
-    header, records, footer = read_trace(path)
+def hash_problem(header: dict, records: list[dict], footer: dict | None) -> str | None:
+    """Whether a trace's records and header match the hashes in its footer (None: they do, or no footer)."""
+    if footer is None:
+        return None
     h = TraceHasher()
     for rec in records:
         h.update(rec)
+    if footer.get("trace_hash") != h.hexdigest():
+        return f"hash mismatch: footer {footer.get('trace_hash')}, records {h.hexdigest()} (edited or corrupt)"
+    if footer.get("header_hash") is not None and footer["header_hash"] != digest(header):
+        return "the header does not match its hash in the footer (edited or corrupt)"
+    return None
+
+
+def verify(path: str | Path) -> str:
+    """Recompute the hashes of a trace file and compare them with its footer's; the trace hash."""
+    header, records, footer = read_trace(path)
     if footer is None:
         raise TraceError(f"{path}: no footer (the run did not finish writing the trace)")
-    if footer["trace_hash"] != h.hexdigest():
-        raise TraceError(f"{path}: hash mismatch: footer {footer['trace_hash']}, records {h.hexdigest()}")
-    return h.hexdigest()
+    problem = hash_problem(header, records, footer)
+    if problem:
+        raise TraceError(f"{path}: {problem}")
+    return footer["trace_hash"]

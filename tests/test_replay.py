@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import shutil
 import tomllib
+from pathlib import Path
 
 import aiohttp
 import msgpack
@@ -99,6 +100,9 @@ async def test_replay_shows_the_live_positions_at_intermediate_ticks(tmp_path):
 
 
 def test_replay_events_prints_the_control_actions(tmp_path, capsys):
+    from swarmactors.trace import TraceHasher
+
+    hasher = TraceHasher()
     trace = tmp_path / "trace.msgpack"
     with open(trace, "wb") as f:
         for obj in ({"trace": "swarmactors", "version": 1, "run_id": "x", "clock": "lockstep", "seed": 1,
@@ -108,7 +112,11 @@ def test_replay_events_prints_the_control_actions(tmp_path, capsys):
                                                           {"t": 1, "robot": 1, "failed": "killed"}]},
                     {"t": 2, "pos": [[0, 0.0, 0.0]], "ev": [{"t": 2, "loss": 0.25, "source": "control"},
                                                           {"t": 2, "cut": [[0, 1]], "source": "scenario"}]},
-                    {"end": True, "ticks": 3, "trace_hash": "0" * 32}):
+                    {"end": True, "ticks": 3, "trace_hash": None}):
+            if obj.get("end"):  # the real hash of the records above: the replay verifies it
+                obj["trace_hash"] = hasher.hexdigest()
+            elif "t" in obj:
+                hasher.update(obj)
             f.write(msgpack.packb(obj))
     assert main(["replay", str(trace), "--events"]) == 0
     out = capsys.readouterr().out
@@ -188,3 +196,87 @@ def test_run_writes_charts_beside_result(tmp_path, run):
     for p in paths:
         with Image.open(p) as img:
             assert img.format == "PNG" and img.size[0] > 400
+
+
+# ------------------------------------------------------------------------------------------------ verification
+def _small_trace(tmp_path: Path) -> Path:
+    from swarmactors.launcher import run
+
+    result = run({"run": {"name": "verify", "ticks": 4},
+                  "robots": [{"count": 3, "placement": "line", "behaviors": [{"use": "beacon"}]}]},
+                 out=tmp_path / "run", processes=0)
+    return result.trace_path
+
+
+def _rewrite(path: Path, edit) -> Path:
+    """A copy of the trace with ``edit(objects)`` applied to its list of maps."""
+    with open(path, "rb") as f:
+        objs = list(msgpack.Unpacker(f, raw=False, strict_map_key=False))
+    edit(objs)
+    out = path.with_name("edited.msgpack")
+    out.write_bytes(b"".join(msgpack.packb(o) for o in objs))
+    return out
+
+
+@pytest.mark.slow
+def test_an_edited_record_or_header_is_refused_on_replay_unless_told_to_proceed(tmp_path):
+    from swarmactors.replay import Replay
+    from swarmactors.trace import TraceError, verify
+
+    trace = _small_trace(tmp_path)
+    assert verify(trace) and Replay(trace).note is None
+
+    def move_robot(objs):
+        objs[2]["pos"][0][1] += 0.5
+
+    def rename_run(objs):
+        objs[0]["scenario"]["run"]["name"] = "other"
+
+    for edit, words in ((move_robot, "hash mismatch"), (rename_run, "header does not match")):
+        edited = _rewrite(trace, edit)
+        with pytest.raises(TraceError, match=words):
+            verify(edited)
+        with pytest.raises(TraceError, match="--no-verify"):
+            Replay(edited)
+        assert words in Replay(edited, verify=False).note
+
+
+@pytest.mark.parametrize("record,words", [
+    ({"t": 1, "pos": "nowhere"}, "'pos' is a str"),
+    ({"t": 1, "pos": [[0, "x", 1.0]]}, "not a number"),
+    ({"t": 1, "sent": [[0, 1]]}, "'sent' holds"),
+    ({"t": 1, "status": [1, 2]}, "'status'"),
+    ({"t": 1, "ev": {"kill": 1}}, "'ev' is not a list"),
+])
+def test_a_record_of_the_wrong_shape_is_an_error_with_its_offset(tmp_path, record, words):
+    from swarmactors.cli import main
+    from swarmactors.trace import TraceError, read_trace
+
+    path = tmp_path / "trace.msgpack"
+    head = msgpack.packb({"trace": "swarmactors", "version": 1, "run_id": "x", "scenario": {}})
+    first = msgpack.packb({"t": 0, "pos": [[0, 0.0, 0.0]]})
+    path.write_bytes(head + first + msgpack.packb(record))
+    with pytest.raises(TraceError) as err:
+        read_trace(path)
+    assert f"byte offset {len(head) + len(first)}" in str(err.value) and words in str(err.value)
+    assert main(["replay", str(path), "--events"]) == 2
+
+
+@pytest.mark.slow
+def test_an_edited_result_json_is_an_error_naming_the_file_not_a_traceback(tmp_path, capsys):
+    import json
+
+    from swarmactors.replay import Replay
+    from swarmactors.result import Result, ResultError
+
+    trace = _small_trace(tmp_path)
+    result_path = trace.parent / "result.json"
+    data = json.loads(result_path.read_text())
+    data["robots"] = ["not", "a", "map"]
+    result_path.write_text(json.dumps(data))
+    with pytest.raises(ResultError, match="'robots' is a list"):
+        Result.load(result_path)
+    assert main(["export", str(result_path), "--format", "csv", "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err
+    assert "result.json" in err and "Traceback" not in err
+    assert Replay(trace).result is None  # the replay shows the trace alone
