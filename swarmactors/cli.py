@@ -24,7 +24,7 @@ from swarmactors import scenario as scenario_mod
 from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME
 from swarmactors.hosting import HostError, serve_host
 from swarmactors.launcher import new_run_id, private_endpoints, run_dir, run_world, validate_run
-from swarmactors.plugins import BEHAVIORS, resolve
+from swarmactors.plugins import BEHAVIORS, PluginError, resolve
 from swarmactors.progress import RunProgress, summary_table
 from swarmactors.scenario import ScenarioError
 from transport import Endpoints, Keys, Security, ensure_files
@@ -108,9 +108,9 @@ def build_parser() -> argparse.ArgumentParser:
     robots.add_argument("--allow", action="append", default=[], metavar="MODULE",
                         help="a module whose Behavior classes this host may run (repeatable); "
                              "registered behaviours are always allowed, nothing else is")
-    robots.add_argument("--wait", type=float, default=120.0, metavar="S",
-                        help="keep trying to reach the world for S seconds, with backoff (default 120), "
-                             "then exit 3")
+    robots.add_argument("--wait", type=float, default=60.0, metavar="S",
+                        help="keep trying to reach and join the world for S seconds, with backoff (default 60, "
+                             "as the world's run.join_timeout_s), then exit 3")
     robots.add_argument("--quiet", action="store_true", help="print only warnings and errors")
 
     lst = sub.add_parser("list", help="list what is installed: behaviors, checks, families or scenarios")
@@ -186,7 +186,7 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:  # the last resort: one line naming the error, the traceback only with -v
         if args.verbose:
             raise
-        code = EXIT_INPUT if isinstance(exc, (OSError, UnicodeError, ValueError, LookupError)) else EXIT_RUNTIME
+        code = EXIT_INPUT if isinstance(exc, (OSError, UnicodeError, ValueError, PluginError)) else EXIT_RUNTIME
         print(f"error: {_one_line(exc)} (run with -v for the traceback)", file=sys.stderr)
         return code
 

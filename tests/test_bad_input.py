@@ -181,7 +181,7 @@ def test_cli_good_scenario_runs_and_writes_output(tmp_path):
     (tmp_path / "s.toml").write_text(GOOD)
     proc = _cli(["run", "s.toml", "--quiet"], cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
-    assert (tmp_path / "out" / "bad-input" / "result.json").is_file()
+    assert (tmp_path / "out" / "bad-input" / "latest" / "result.json").is_file()  # out/<name>/<UTC>-s<seed>
 
 
 @pytest.mark.slow

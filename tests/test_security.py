@@ -62,7 +62,7 @@ def start_world(scenario, out, endpoint, run_id, secure=None):
 
 def start_host(endpoint, run_id, count, secure=None):
     cmd = [sys.executable, "-m", "swarmactors", "robots", "--connect", endpoint, "--run-id", run_id,
-           "--count", str(count)]
+           "--count", str(count), "--wait", "30"]  # a host that misses the run gives up within the test's wait
     if secure is not None:
         cmd += ["--secure", str(secure)]
     return subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True)
