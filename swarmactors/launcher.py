@@ -129,6 +129,7 @@ async def run_world(
         trace_path,
         {"run_id": run_id, "clock": sc["run"]["clock"], "seed": sc["run"]["seed"],
          "pos_digits": POS_DIGITS, "scenario": to_jsonable(sc)},
+        compression=None if sc["run"].get("trace_compression", "none") == "none" else sc["run"]["trace_compression"],
     )
     interrupted = False
     procs: list[multiprocessing.Process] = []

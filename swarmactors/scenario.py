@@ -69,6 +69,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "join_timeout_s": (_NUM, 60.0, _positive),
         "state_every": (int, 1, _non_negative),
         "trace": (bool, True, None),
+        "trace_compression": (str, "none", _one_of("none", "zstd")),  # trace.msgpack through Zstandard
         "processes": (int, 0, _non_negative),
     },
     "radio": {

@@ -24,6 +24,7 @@ check both, so an edited header or record does not go unnoticed.
 from __future__ import annotations
 
 import hashlib
+import time
 from collections.abc import Iterator
 from operator import itemgetter
 from pathlib import Path
@@ -34,6 +35,8 @@ import msgpack
 from transport import pack
 
 VERSION = 1
+FLUSH_S = 1.0  # the trace file is flushed at least this often (seconds)
+ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"  # a Zstandard frame's first bytes
 
 
 class TraceError(ValueError):
@@ -105,19 +108,30 @@ class TraceWriter:
     """A world sink: writes the trace file (if ``path``) and computes the hash.
 
     A write failure (full disk, removed directory) does not stop the run: the
-    hash goes on, the file is closed, and ``error`` says what happened.
+    hash goes on, the file is closed, and ``error`` says what happened. The file is
+    flushed at least once per second (``FLUSH_S``), so a world killed mid-run loses at
+    most the last second of its trace. ``compression = "zstd"`` writes the same msgpack
+    stream through a Zstandard compressor (``run.trace_compression``); readers detect it
+    by its magic number, and the hashes are over the records, not the bytes on disk.
     """
 
-    def __init__(self, path: Path | None, header: dict):
+    def __init__(self, path: Path | None, header: dict, compression: str | None = None):
         self.path = path
         self.hasher = TraceHasher()
         self.ticks = 0
         self.error: str | None = None
         self.header_hash: str | None = None
         self._file = None
+        self._raw = None  # the file under a compressor
+        self._flushed = time.monotonic()
         if path is not None:
             try:
                 self._file = open(path, "wb", buffering=1 << 20)
+                if compression == "zstd":
+                    import zstandard
+
+                    self._raw = self._file
+                    self._file = zstandard.ZstdCompressor(level=3).stream_writer(self._raw, closefd=False)
                 head = {"trace": "swarmactors", "version": VERSION, **header}
                 self.header_hash = digest(head)
                 self._file.write(pack(head))
@@ -131,17 +145,30 @@ class TraceWriter:
         if self._file is not None:
             try:
                 self._file.write(pack(rec))
+                if time.monotonic() - self._flushed >= FLUSH_S:
+                    self._flush()
             except OSError as exc:
                 self._fail(exc)
 
+    def _flush(self) -> None:
+        if self._raw is not None:
+            import zstandard
+
+            self._file.flush(zstandard.FLUSH_BLOCK)  # a whole block, readable by itself
+            self._raw.flush()
+        else:
+            self._file.flush()
+        self._flushed = time.monotonic()
+
     def _fail(self, exc: OSError) -> None:
         self.error = f"trace {self.path}: {exc.strerror or exc}"
-        if self._file is not None:
-            try:
-                self._file.close()
-            except OSError:
-                pass
-        self._file = None
+        for f in (self._file, self._raw):
+            if f is not None:
+                try:
+                    f.close()
+                except OSError:
+                    pass
+        self._file = self._raw = None
 
     @property
     def trace_hash(self) -> str:
@@ -153,6 +180,9 @@ class TraceWriter:
                 self._file.write(pack({"end": True, "ticks": self.ticks, "trace_hash": self.trace_hash,
                                        "header_hash": self.header_hash}))
                 self._file.close()
+                if self._raw is not None:
+                    self._raw.close()
+                    self._raw = None
             except OSError as exc:
                 self._fail(exc)
             self._file = None
@@ -181,16 +211,25 @@ def iter_trace(path: str | Path) -> Iterator[dict]:
     except OSError as exc:
         raise TraceError(f"{path}: cannot open: {exc.strerror}") from None
     with f:
+        size = path.stat().st_size
+        if size == 0:
+            raise TraceError(f"{path}: empty file at byte offset 0 (the run wrote no trace data)")
+        if f.read(4) == ZSTD_MAGIC:  # a compressed trace: offsets below are in the decompressed stream
+            import zstandard
+
+            f.seek(0)
+            f = zstandard.ZstdDecompressor().stream_reader(f, read_across_frames=True)
+            size = None
+        else:
+            f.seek(0)
         unpacker = msgpack.Unpacker(f, raw=False, strict_map_key=False, max_buffer_size=1 << 30)
         first = True
         offset = 0
-        if path.stat().st_size == 0:
-            raise TraceError(f"{path}: empty file at byte offset 0 (the run wrote no trace data)")
         while True:
             try:
                 obj = unpacker.unpack()
             except msgpack.OutOfData:
-                if offset < path.stat().st_size:
+                if (size is not None and offset < size) or (size is None and unpacker.tell() > offset):
                     raise TraceError(f"{path}: truncated record at byte offset {offset}") from None
                 return
             except Exception as exc:

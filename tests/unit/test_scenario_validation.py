@@ -65,6 +65,7 @@ RUN = {
     "name": (STRING, "run"), "seed": (INTEGER, 0), "clock": (STRING, "lockstep"), "ticks": (INTEGER, None),
     "duration": (NUMBER, None), "dt": (NUMBER, 1.0), "watchdog_s": (NUMBER, 10.0), "join_timeout_s": (NUMBER, 60.0),
     "state_every": (INTEGER, 1), "trace": (BOOLEAN, True), "processes": (INTEGER, 0),
+    "trace_compression": (STRING, "none"),
 }
 RADIO = {
     "range": (NUMBER, 1.0), "latency": (INTEGER, 1), "latency_s": (NUMBER, 0.01), "latency_min_s": (NUMBER, None),
@@ -100,7 +101,7 @@ VALID = {
     ("group", "body_radius"): lambda v: v >= 0, ("group", "climb_rate"): lambda v: v > 0,
     ("group", "obstacle_rays"): lambda v: v >= 0,
 }
-ONE_OF = {("run", "clock"): ["lockstep", "realtime"], ("radio", "model"): ["bernoulli", "distance"],
+ONE_OF = {("run", "clock"): ["lockstep", "realtime"], ("run", "trace_compression"): ["none", "zstd"], ("radio", "model"): ["bernoulli", "distance"],
           ("group", "placement"): ["uniform", "grid", "line", "ring"], ("group", "kind"): ["ground", "flying"]}
 
 
