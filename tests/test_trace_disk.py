@@ -42,10 +42,10 @@ def test_zstd_trace_has_the_same_hash_and_reads_back(tmp_path):
 def test_the_trace_writer_flushes_at_least_once_per_second(tmp_path, monkeypatch):
     import swarmactors.trace as trace_mod
 
+    clock = [100.0]
+    monkeypatch.setattr(trace_mod.time, "monotonic", lambda: clock[0])
     for compression in (None, "zstd"):
         path = tmp_path / f"t-{compression}.msgpack"
-        clock = [100.0]
-        monkeypatch.setattr(trace_mod.time, "monotonic", lambda: clock[0])
         writer = trace_mod.TraceWriter(path, {"run_id": "x"}, compression=compression)
         writer.record({"t": 0, "pos": [[0, 0.0, 0.0]]})
         clock[0] += trace_mod.FLUSH_S  # a second later, the next record goes to disk with everything before it
