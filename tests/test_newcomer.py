@@ -317,6 +317,26 @@ def test_table_rules_bound_direction_status_rounding():
     assert [r[0] for r in check_rows(tagged, [])] == ["check a:parts", "  a.x", "  a.y", "check b:other (b)"]
 
 
+def test_check_table_not_wrapped_off_a_terminal_with_an_eta(tmp_path, monkeypatch, capsys):
+    code, _, err = cli(["check", "flooding", "--clock", "realtime", "--no-determinism", "--out", "o"], tmp_path,
+                       monkeypatch, capsys)
+    assert code == EXIT_OK, err
+    assert "ETA" in err
+    row = next(ln for ln in err.splitlines() if "flooding/rgg-12-s2-realtime" in ln and "flooding.component" in ln)
+    assert len(row) > 80  # one row, not wrapped at 80 columns
+    assert any("flooding.not_to_sender" in ln and "(bound = 0)" in ln for ln in err.splitlines())
+    assert "1 passed, 0 failed (checks: 3 passed, 0 nothing to judge, 0 failed)" in err
+
+
+def test_compose_world_prints_its_summary_table():
+    """The compose world runs without --quiet, so a compose run ends with the world's summary table."""
+    text = (TESTS.parent / "docker" / "compose.yaml").read_text()
+    worlds = re.findall(r'command: \["world",[^\]]*\]', text)
+    assert len(worlds) == 2 and all("--quiet" not in w for w in worlds)
+    robots = re.findall(r'command: \["robots",[^\]]*\]', text)
+    assert len(robots) == 2 and all("--quiet" not in r for r in robots)
+
+
 def test_version_and_list(tmp_path, monkeypatch, capsys):
     from importlib.metadata import version
 
