@@ -319,11 +319,54 @@ def _job(family_name: str, case_name: str, mode: str, behavior: str | None, out_
         return asdict(CaseResult(fam.name, case.name, False, error=f"{exc.__class__.__name__}: {exc}"))
 
 
+def _cluster_job(family_name: str, case_name: str, mode: str, behavior: str | None, determinism: bool, *,
+                 out: Path) -> tuple[dict, bool]:
+    """One case in a child process on a Dask worker (``swarmactors.cluster``): (its result, keep files: failed)."""
+    d = _job(family_name, case_name, mode, behavior, str(out.parent / "cases"), determinism)
+    case_dir = out.parent / "cases" / case_name.replace("/", "-")
+    if case_dir.is_dir():
+        case_dir.rename(out)
+    for k in ("reproduce", "reproduce_command"):
+        if d.get(k):
+            d[k] = d[k].replace(str(case_dir.resolve()), str(out.resolve()))
+    return d, not d["passed"]
+
+
+def _on_cluster(address: str, args: list[tuple], behavior: str | None, out_dir: Path, take) -> None:
+    """The cases as tasks on a Dask cluster, each in a fresh child process (``swarmactors.cluster``)."""
+    from swarmactors import cluster as cl
+
+    client = cl.connect(address)
+    try:
+        cl.require_modules(client, cl.user_modules([behavior] if behavior else []))
+        jobs = [cl.Job(a, "swarmactors.conformance:_cluster_job", (a[0], a[1], a[2], a[3], a[5]), name="case")
+                for a in args]
+
+        def on_reply(job: cl.Job, reply: cl.Reply) -> None:
+            if reply.error is not None:
+                take(asdict(CaseResult(job.key[0], job.key[1], False, error=reply.error)))
+                return
+            d = dict(reply.value)
+            case_dir = (out_dir / d["case"].replace("/", "-")).resolve()
+            if reply.files:
+                cl.extract(reply.files, case_dir)
+            for k in ("reproduce", "reproduce_command"):
+                if d.get(k):
+                    d[k] = d[k].replace(str(Path(reply.tmp).resolve()), str(case_dir))
+            take(d)
+
+        if cl.run_jobs(client, jobs, on_reply):
+            raise KeyboardInterrupt
+    finally:
+        client.close()
+
+
 def check(family_name: str = "all", behavior: str | None = None, mode: str = "quick", clock: str | None = None,
           jobs: int = 1, out_dir: Path = Path("out/check"), determinism: bool = True,
-          progress: Callable[[CaseResult], None] | None = None) -> list[CaseResult]:
+          progress: Callable[[CaseResult], None] | None = None, cluster: str | None = None) -> list[CaseResult]:
     """Run a family's (or every family's) suite against ``behavior``; results in suite order.
 
+    ``cluster``: a Dask scheduler's address (``tcp://HOST:8786``): the cases run on its workers, not here.
     ``ContractError`` when the behaviour cannot be loaded or does not speak the report contract.
     """
     import multiprocessing
@@ -346,7 +389,9 @@ def check(family_name: str = "all", behavior: str | None = None, mode: str = "qu
         if progress:
             progress(r)
 
-    if jobs <= 1:
+    if cluster is not None:
+        _on_cluster(cluster, args, behavior, out_dir, take)
+    elif jobs <= 1:
         for a in args:
             take(_job(*a))
     else:
