@@ -94,6 +94,8 @@ def build_parser() -> argparse.ArgumentParser:
     chk.set_defaults(mode="quick")
     chk.add_argument("--clock", choices=["lockstep", "realtime"], help="only the cases of this clock")
     chk.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    chk.add_argument("--cluster", metavar="tcp://HOST:8786",
+                     help="run the cases on this Dask scheduler's workers (docs/scaling.md)")
     chk.add_argument("--json", type=Path, metavar="OUT", help="write the results as JSON")
     chk.add_argument("--junit", type=Path, metavar="OUT", help="write JUnit XML")
     chk.add_argument("--out", type=Path, default=Path("out/check"), help="where cases write their runs")
@@ -139,11 +141,15 @@ def build_parser() -> argparse.ArgumentParser:
     scenario_args(sweep, "output directory (default out/<run.name>-sweep; a sweep resumes there)")
     sweep.add_argument("--grid", action="append", default=[], metavar="SECTION.KEY=V1,V2,...",
                        help="values of one key to sweep (repeatable: the grid is their product)")
-    sweep.add_argument("--trials", type=int, default=1, help="runs per grid point, seeds derived from run.seed")
+    sweep.add_argument("--trials", type=int, help="runs per grid point, seeds derived from run.seed (default 1, "
+                       "or the sweep file's)")
     sweep.add_argument("--workers", type=int, default=max(1, (os.cpu_count() or 2) - 1),
                        help="worker processes (default: CPUs - 1)")
     sweep.add_argument("--keep", choices=["all", "failed", "none"], default="failed",
                        help="which trials keep their result.json and trace (default: failed)")
+    sweep.add_argument("--cluster", metavar="tcp://HOST:8786",
+                       help="run the trials on this Dask scheduler's workers instead of local processes "
+                            "(docs/scaling.md)")
     schedule_cli.add_parser(sub)
     export_cli.add_parser(sub)  # swarmactors export RUN (issue 26)
     newproject.add_parser(sub)  # swarmactors new NAME (issue 26)
@@ -373,7 +379,7 @@ def _check(args, err: Console) -> int:
                 bar.update(task, advance=1, description=f"{r.case} {'ok' if r.passed else 'FAILED'}")
 
             results = cf.check(args.family, args.behavior, args.mode, args.clock, args.jobs, args.out,
-                               not args.no_determinism, progress=tick)
+                               not args.no_determinism, progress=tick, cluster=args.cluster)
     except cf.ContractError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_INPUT
