@@ -151,18 +151,24 @@ def _sweep(args, err: Console) -> int:
         overrides.append(f"run.seed={args.seed}")
     if args.clock is not None:
         overrides.append(f'run.clock="{args.clock}"')
-    plan = sw.prepare(args.scenario, overrides, args.grid, args.trials, args.out)
+    plan = sw.plan(args.scenario, overrides, args.grid, args.trials, args.out)
     with Progress(TextColumn(f"[bold]{plan.name} sweep"), BarColumn(), MofNCompleteColumn(),
                   TextColumn("{task.fields[note]}"), TimeElapsedColumn(), TimeRemainingColumn(),
                   console=err, disable=args.quiet or args.json) as bar:
         task = bar.add_task("", total=None, note="")
 
         def progress(done: int, total: int, counts: dict) -> None:
-            note = ", ".join(f"{v} {k}" for k, v in (("check failures", counts["failed"]),
+            note = ", ".join(f"{v} {k}" for k, v in (("running", counts.get("running", 0)),
+                                                       ("check failures", counts["failed"]),
                                                        ("errors", counts["errors"])) if v)
             bar.update(task, completed=done, total=total, note=note)
 
-        outcome = sw.run_sweep(plan, workers=args.workers, keep=args.keep, progress=progress)
+        try:
+            outcome = sw.run_sweep(plan, workers=args.workers, keep=args.keep, progress=progress,
+                                   cluster=args.cluster)
+        except RuntimeError as exc:  # swarmactors.cluster.ClusterError: the scheduler unreachable or gone
+            print(f"error: {exc}", file=sys.stderr)
+            return EXIT_RUNTIME
     if args.json:
         print(json.dumps(outcome.as_dict()))
     elif not args.quiet:

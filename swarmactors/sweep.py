@@ -154,14 +154,14 @@ def point_slug(keys: list[str], values: tuple) -> str:
     return re.sub(r"[^A-Za-z0-9_.=,+-]", "_", text)[:150]
 
 
-def prepare(scenario: str | Path, overrides: list[str], grid_items: list[str], trials: int,
+def prepare(scenario: str | Path, overrides: list[str], grid_items: list[str | tuple], trials: int,
             out: Path | None) -> Sweep:
     """Validate everything (every grid point resolves) before any trial starts."""
     from swarmactors.scenario import load
 
     if trials < 1:
         raise SweepError(f"--trials {trials}: must be >= 1")
-    grid = [parse_grid(item) for item in grid_items]
+    grid = [item if isinstance(item, tuple) else parse_grid(item) for item in grid_items]
     keys = [k for k, _ in grid]
     if len(set(keys)) != len(keys):
         raise SweepError("--grid: a key is given twice")
@@ -183,31 +183,125 @@ def prepare(scenario: str | Path, overrides: list[str], grid_items: list[str], t
                  base["run"]["seed"], name, identity)
 
 
-# ---------------------------------------------------------------- one trial
-def run_trial(sweep_args: dict, t: Trial) -> dict:
-    """Run one trial (in a worker process); return its CSV row (cells as strings), or None if interrupted."""
-    from swarmactors.launcher import run_world
-    from transport import Endpoints
+def plan(source: str | Path, overrides: list[str], grid_items: list[str], trials: int | None,
+         out: Path | None) -> Sweep:
+    """The sweep of the command line: ``source`` is a scenario or a sweep file (``read_spec``).
 
-    sw: Sweep = sweep_args["sweep"]
-    out_dir = sw.trial_dir(t)
+    The options extend a sweep file's values (``--set``, ``--grid``) or replace them (``--trials``, ``--out``).
+    """
+    spec = read_spec(source)
+    if spec is None:
+        return prepare(source, overrides, grid_items, 1 if trials is None else trials, out)
+    return prepare(spec["scenario"], [*spec["set"], *overrides], [*spec["grid"], *grid_items],
+                   spec["trials"] if trials is None else trials, out or spec["out"])
+
+
+SPEC_KEYS = {"scenario": "the scenario file, relative to this file", "set": "overrides, as --set",
+             "grid": "a table of key = [values], as --grid", "trials": "runs per grid point",
+             "out": "output directory (relative to the current directory)"}
+
+
+def read_spec(path: str | Path) -> dict | None:
+    """A sweep file: TOML with one ``[sweep]`` table (``SPEC_KEYS``); None when ``path`` is a scenario.
+
+    ``SweepError`` naming the file and the key for an unknown key or a value of the wrong type.
+    """
+    from swarmactors.scenario import read_raw
+
+    raw = read_raw(path)  # ScenarioError naming the file
+    if "sweep" not in raw:
+        return None
+    for key in raw:
+        if key != "sweep":
+            raise SweepError(f"{path}: unknown key {key!r} (a sweep file holds only a [sweep] table)")
+    spec = raw["sweep"]
+    if not isinstance(spec, dict):
+        raise SweepError(f"{path}: key 'sweep' must be a table")
+    for key in spec:
+        if key not in SPEC_KEYS:
+            raise SweepError(f"{path}: unknown key 'sweep.{key}' (known: {', '.join(SPEC_KEYS)})")
+
+    def bad(key: str, what: str):
+        return SweepError(f"{path}: key 'sweep.{key}' = {spec.get(key)!r}: must be {what}")
+
+    if not isinstance(spec.get("scenario"), str):
+        raise bad("scenario", "a scenario file name")
+    sets = spec.get("set", [])
+    if not (isinstance(sets, list) and all(isinstance(x, str) and "=" in x for x in sets)):
+        raise bad("set", 'a list of "SECTION.KEY=VALUE" strings')
+    grid = spec.get("grid", {})
+    if not (isinstance(grid, dict) and all(isinstance(v, list) and v for v in grid.values())):
+        raise bad("grid", "a table of key = [values] (non-empty lists)")
+    items = []
+    for key, values in grid.items():
+        if len({cell(v) for v in values}) != len(values):
+            raise bad("grid", f"values without repeats (sweep.grid.{key} repeats one)")
+        items.append((key, values))
+    trials = spec.get("trials", 1)
+    if type(trials) is not int or trials < 1:
+        raise bad("trials", "an integer >= 1")
+    if "out" in spec and not isinstance(spec["out"], str):
+        raise bad("out", "a directory name")
+    return {"scenario": Path(path).parent / spec["scenario"], "set": sets, "grid": items, "trials": trials,
+            "out": Path(spec["out"]) if "out" in spec else None}
+
+
+# ---------------------------------------------------------------- one trial
+def trial_run_id(sw: Sweep, t: Trial) -> str:
+    """The trial's run id: a function of the sweep's identity and the trial's key (the same on any machine)."""
+    return f"sweep-{hashlib.blake2b(repr((sw.identity, t.key(sw.keys))).encode(), digest_size=6).hexdigest()}"
+
+
+def base_row(sw: Sweep, t: Trial) -> dict:
     row = {k: cell(v) for k, v in zip(sw.keys, t.values, strict=True)}
     row.update(trial=str(t.trial), seed=str(t.seed))
+    return row
+
+
+def run_trial(sweep_args: dict, t: Trial) -> dict | None:
+    """Run one trial (in a worker process); return its CSV row (cells as strings), or None if interrupted."""
+    sw: Sweep = sweep_args["sweep"]
+    out_dir = sw.trial_dir(t)
+    row = base_row(sw, t)
     if out_dir.exists():
         shutil.rmtree(out_dir)  # a trial cut short before: start it afresh
     try:
         sc = load_point(sw.scenario, sw.overrides, sw.trial_values(t))
-        run_id = f"sweep-{hashlib.blake2b(repr((sw.identity, t.key(sw.keys))).encode(), digest_size=6).hexdigest()}"
-        result = asyncio.run(run_world(sc, out_dir, Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"]), run_id,
-                                       processes=sc["run"]["processes"]))
     except Exception as exc:  # the row says why; the sweep goes on
         row["error"] = f"{exc.__class__.__name__}: {exc}"
         return row
-    if result["interrupted"]:
+    cells, keep = trial_cells(sc, out_dir, trial_run_id(sw, t), sweep_args["keep"])
+    if cells is None:
         return None
+    row.update(cells)
+    if not keep:
+        shutil.rmtree(out_dir, ignore_errors=True)
+    return row
+
+
+def cluster_trial(sc: dict, run_id: str, keep: str, *, out: Path) -> tuple[dict | None, bool]:
+    """One trial in a child process on a Dask worker (``swarmactors.cluster.in_child``): as ``trial_cells``."""
+    return trial_cells(sc, out, run_id, keep)
+
+
+def trial_cells(sc: dict, out_dir: Path, run_id: str, keep: str) -> tuple[dict | None, bool]:
+    """Run the resolved trial scenario ``sc`` into ``out_dir``: (its CSV cells, keep its files?); None if interrupted.
+
+    A trial that raises gives an ``error`` cell (and keeps its files): the sweep goes on.
+    """
+    from swarmactors.launcher import run_world
+    from transport import Endpoints
+
+    try:
+        result = asyncio.run(run_world(sc, out_dir, Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"]), run_id,
+                                       processes=sc["run"]["processes"]))
+    except Exception as exc:  # the row says why; the sweep goes on
+        return {"error": f"{exc.__class__.__name__}: {exc}"}, True
+    if result["interrupted"]:
+        return None, False
     data = result.data
     w = data["world"]
-    row.update(
+    row = dict(
         ticks=cell(data["ticks"]), trace_hash=data["trace_hash"], stop_reason=cell(data["stop_reason"]),
         robots=cell(len(data["robots"])), alive=cell(sum(1 for r in data["robots"].values() if r["alive"])),
         frames_sent=cell(w["frames_sent"]), deliveries=cell(w["deliveries"]),
@@ -223,11 +317,8 @@ def run_trial(sweep_args: dict, t: Trial) -> dict:
     for c in data["checks"]:
         row[f"check.{c['name']}"] = "pass" if c["passed"] else "fail"
         row[f"check.{c['name']}.value"] = cell(c["value"])
-    keep = sweep_args["keep"]
     failed = row["passed"] == "false"
-    if keep == "none" or (keep == "failed" and not failed):
-        shutil.rmtree(out_dir, ignore_errors=True)
-    return row
+    return row, keep == "all" or (keep == "failed" and failed)
 
 
 def _flatten(d: dict, prefix: str = ""):
@@ -359,12 +450,30 @@ class Outcome:
 
 
 def run_sweep(sw: Sweep, workers: int = 1, keep: str = "failed",
-              progress: Callable[[int, int, dict], None] | None = None) -> Outcome:
-    """Run the trials not yet in the CSV; Ctrl-C stops the workers and keeps the finished rows."""
+              progress: Callable[[int, int, dict], None] | None = None, cluster: str | None = None) -> Outcome:
+    """Run the trials not yet in the CSV; Ctrl-C stops the workers and keeps the finished rows.
+
+    ``cluster``: the address of a Dask scheduler (``tcp://HOST:8786``) whose workers run the trials
+    (``swarmactors.cluster``) instead of ``workers`` local processes; the rows are the same bytes.
+    ``progress(done, total, counts)``: counts has ``errors``, ``failed`` (checks) and ``running``.
+    """
     if workers < 1:
         raise SweepError(f"--workers {workers}: must be >= 1")
     if keep not in ("all", "failed", "none"):
         raise SweepError(f"--keep {keep!r}: one of all, failed, none")
+    client = None
+    if cluster is not None:
+        from swarmactors.cluster import connect
+
+        client = connect(cluster)  # before anything is written: an unreachable scheduler leaves no trace
+    try:
+        return _run_sweep(sw, workers, keep, progress, client)
+    finally:
+        if client is not None:
+            client.close()
+
+
+def _run_sweep(sw: Sweep, workers: int, keep: str, progress, client) -> Outcome:
     sw.out.mkdir(parents=True, exist_ok=True)
     ident_path = sw.out / "sweep.json"
     if ident_path.exists():
@@ -385,59 +494,129 @@ def run_sweep(sw: Sweep, workers: int = 1, keep: str = "failed",
     # a resumed sweep counts the errors and failed checks of the trials already in trials.csv too
     before = [table.rows[t.key(sw.keys)] for t in trials if table.done(t)]
     counts = {"errors": sum(bool(r.get("error")) for r in before),
-              "failed": sum(r.get("passed") == "false" for r in before)}
+              "failed": sum(r.get("passed") == "false" for r in before), "running": 0}
     done = skipped
-    if progress:
-        progress(done, len(trials), counts)
+
+    def report() -> None:
+        if progress:
+            progress(done, len(trials), counts)
+
+    def take(t: Trial, row: dict) -> None:
+        nonlocal done
+        table.add(t, row)
+        counts["errors"] += bool(row.get("error"))
+        counts["failed"] += row.get("passed") == "false"
+        done += 1
+        report()
+
+    def running(n: int) -> None:
+        counts["running"] = n
+        report()
+
+    report()
     interrupted = False
-    args = {"sweep": sw, "keep": keep}
-    if pending:
-        ctx = multiprocessing.get_context("spawn")
-        tasks, results = ctx.Queue(), ctx.Queue()
-        for t in pending:
-            tasks.put(t)
-        n = min(workers, len(pending))
-        for _ in range(n):
-            tasks.put(None)
-        with fixed_hash_seed():
-            procs = [ctx.Process(target=_worker, args=(args, tasks, results), name=f"sweep-worker-{i}")
-                     for i in range(n)]
-            for p in procs:
-                p.start()
-        remaining = len(pending)
+    if pending and client is not None:
+        from swarmactors.cluster import ClusterError
+
         try:
-            while remaining:
-                try:
-                    t, row = results.get(timeout=0.5)
-                except queue.Empty:
-                    if not any(p.is_alive() for p in procs):
-                        raise RuntimeError("every sweep worker exited before the sweep was done") from None
-                    continue
-                remaining -= 1
-                if row is None:  # the trial was interrupted: no row
-                    interrupted = True
-                    continue
-                table.add(t, row)
-                counts["errors"] += bool(row.get("error"))
-                counts["failed"] += row.get("passed") == "false"
-                done += 1
-                if progress:
-                    progress(done, len(trials), counts)
-        except KeyboardInterrupt:
-            interrupted = True
-        finally:
-            for p in procs:
-                if p.is_alive() and (interrupted or remaining):
-                    p.terminate()
-            for p in procs:
-                p.join(10)
-                if p.is_alive():
-                    p.kill()
-                    p.join()
+            interrupted = _on_cluster(sw, pending, keep, client, take, running)
+        except ClusterError as exc:
+            table.finish()
+            raise ClusterError(f"{exc}: the sweep stopped with {done} of {len(trials)} trials in {table.path}; "
+                               "run the same command again to resume it") from None
+    elif pending:
+        interrupted = _on_pool(sw, pending, keep, workers, take, running)
+    counts["running"] = 0
     table.finish()
     plots = [] if interrupted else summary_plots(sw, table)
     return Outcome(len(trials), skipped, done - skipped, counts["errors"], counts["failed"], interrupted,
                    table.path, plots)
+
+
+def _on_pool(sw: Sweep, pending: list[Trial], keep: str, workers: int, take, running) -> bool:
+    """The trials over ``workers`` local spawned processes; True if interrupted."""
+    args = {"sweep": sw, "keep": keep}
+    interrupted = False
+    ctx = multiprocessing.get_context("spawn")
+    tasks, results = ctx.Queue(), ctx.Queue()
+    for t in pending:
+        tasks.put(t)
+    n = min(workers, len(pending))
+    for _ in range(n):
+        tasks.put(None)
+    with fixed_hash_seed():
+        procs = [ctx.Process(target=_worker, args=(args, tasks, results), name=f"sweep-worker-{i}")
+                 for i in range(n)]
+        for p in procs:
+            p.start()
+    remaining = len(pending)
+    running(min(n, remaining))
+    try:
+        while remaining:
+            try:
+                t, row = results.get(timeout=0.5)
+            except queue.Empty:
+                if not any(p.is_alive() for p in procs):
+                    raise RuntimeError("every sweep worker exited before the sweep was done") from None
+                continue
+            remaining -= 1
+            if row is None:  # the trial was interrupted: no row
+                interrupted = True
+                continue
+            running(min(n, remaining))
+            take(t, row)
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        for p in procs:
+            if p.is_alive() and (interrupted or remaining):
+                p.terminate()
+        for p in procs:
+            p.join(10)
+            if p.is_alive():
+                p.kill()
+                p.join()
+    return interrupted
+
+
+def _on_cluster(sw: Sweep, pending: list[Trial], keep: str, client, take, running) -> bool:
+    """The trials as tasks on the Dask cluster of ``client``; True if interrupted.
+
+    Each point is resolved here (so workers need neither the scenario file nor its map files) and run in a
+    fresh child on a worker; the kept files come back to ``trials/``. Modules of ``module:Class``
+    references must be importable on every worker (checked first: ``WorkerSetupError``).
+    """
+    from swarmactors import cluster as cl
+
+    jobs, uses = [], set()
+    for t in pending:
+        try:
+            sc = load_point(sw.scenario, sw.overrides, sw.trial_values(t))
+        except Exception as exc:  # as in the local pool: the row says why
+            take(t, {**base_row(sw, t), "error": f"{exc.__class__.__name__}: {exc}"})
+            continue
+        uses |= {b.get("use") for g in sc["robots"] for b in g.get("behaviors", [])}
+        uses |= {c.get("use") for c in sc.get("checks", [])}
+        jobs.append(cl.Job(t, "swarmactors.sweep:cluster_trial", (sc, trial_run_id(sw, t), keep), name="trial"))
+    cl.require_modules(client, cl.user_modules(uses))
+
+    def on_reply(job: cl.Job, reply: cl.Reply) -> None:
+        t: Trial = job.key
+        row = base_row(sw, t)
+        if reply.error is not None:
+            row["error"] = reply.error
+        elif reply.value is None:  # the child was interrupted: no row
+            return
+        else:
+            row.update(reply.value)
+        out_dir = sw.trial_dir(t)
+        if reply.files:
+            cl.extract(reply.files, out_dir)
+        elif out_dir.exists():
+            shutil.rmtree(out_dir)  # left by an earlier, interrupted attempt
+        take(t, row)
+
+    return cl.run_jobs(client, jobs, on_reply, running)
 
 
 # ---------------------------------------------------------------- summary plots
