@@ -55,7 +55,7 @@ class WorkerSetupError(ValueError):
 
 # ---------------------------------------------------------------- client side
 def scheduler_address(text: str) -> str:
-    """``tcp://HOST:PORT`` (``HOST:PORT`` gets ``tcp://``); ``WorkerSetupError``-free: ``ValueError`` if malformed."""
+    """``tcp://HOST:PORT`` (``HOST:PORT`` gets ``tcp://``); ``ValueError`` naming the option if malformed."""
     address = text if "://" in text else f"tcp://{text}"
     scheme, _, rest = address.partition("://")
     host, _, port = rest.rpartition(":")
@@ -64,11 +64,20 @@ def scheduler_address(text: str) -> str:
     return address
 
 
-def connect(text: str, timeout: float = CONNECT_TIMEOUT_S):
-    """A ``distributed.Client`` of the scheduler at ``text``; ``ClusterError`` naming the address if unreachable."""
+def connect(text: str, timeout: float | None = None):
+    """A ``distributed.Client`` of the scheduler at ``text``; ``ClusterError`` naming the address if unreachable.
+
+    ``timeout`` defaults to ``$SWARMACTORS_CLUSTER_TIMEOUT`` seconds, else ``CONNECT_TIMEOUT_S``.
+    """
     from distributed import Client
 
     address = scheduler_address(text)
+    if timeout is None:
+        try:
+            timeout = float(os.environ.get("SWARMACTORS_CLUSTER_TIMEOUT", CONNECT_TIMEOUT_S))
+        except ValueError:
+            raise ValueError(f"SWARMACTORS_CLUSTER_TIMEOUT={os.environ['SWARMACTORS_CLUSTER_TIMEOUT']!r}: "
+                             "expected seconds") from None
     try:
         client = Client(address, timeout=timeout, set_as_default=False)
     except (OSError, TimeoutError) as exc:

@@ -1,0 +1,211 @@
+"""Sweeps and conformance suites on a Dask cluster: a real LocalCluster with 2 worker processes (issue 24)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from swarmactors.cli import main
+
+SCENARIO = """
+[run]
+name = "cl"
+seed = 9
+ticks = 12
+
+[[robots]]
+count = 5
+placement = "line"
+spacing = 0.9
+behaviors = [{ use = "flooding", origin = 0, at = 1, expiry = 6 }]
+
+[[checks]]
+use = "flooding.delivered"
+"""
+# a 2 x 3 grid of 2 trials, half of them with K = 2 host processes
+GRID = ["--grid", "run.processes=0,2", "--grid", "radio.loss=0,0.1,0.3", "--trials", "2"]
+
+
+def _rows(path: Path) -> list[dict]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """A LocalCluster of 2 single-threaded worker processes (with nannies: a killed worker is restarted)."""
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c:
+        with distributed.Client(c) as client:
+            yield c.scheduler_address, client
+
+
+@pytest.fixture(scope="module")
+def scenario(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("scenario") / "cl.toml"
+    path.write_text(SCENARIO)
+    return path
+
+
+@pytest.fixture(scope="module")
+def local_csv(scenario, tmp_path_factory) -> bytes:
+    """The sweep's trials.csv from the local process pool."""
+    out = tmp_path_factory.mktemp("local") / "sweep"
+    assert main(["sweep", str(scenario), *GRID, "--workers", "2", "--out", str(out), "--quiet"]) == 0
+    return (out / "trials.csv").read_bytes()
+
+
+@pytest.mark.slow
+def test_cluster_sweep_is_byte_identical_to_the_local_pool(cluster, scenario, local_csv, tmp_path):
+    address, _ = cluster
+    out = tmp_path / "sweep"
+    assert main(["sweep", str(scenario), *GRID, "--cluster", address, "--out", str(out), "--quiet"]) == 0
+    rows = _rows(out / "trials.csv")
+    assert len(rows) == 12 and {r["run.processes"] for r in rows} == {"0", "2"}
+    assert {r["passed"] for r in rows} == {"true"} and not any(r["error"] for r in rows)
+    assert (out / "trials.csv").read_bytes() == local_csv
+    # K = 0 and K = 2 give the same run: the same trace hash at every (loss, trial)
+    by_k = {k: [(r["radio.loss"], r["trial"], r["trace_hash"]) for r in rows if r["run.processes"] == k]
+            for k in ("0", "2")}
+    assert by_k["0"] == by_k["2"]
+
+
+@pytest.mark.slow
+def test_cluster_sweep_interrupted_then_resumed_is_identical(cluster, scenario, local_csv, tmp_path):
+    address, _ = cluster
+    out = tmp_path / "cut"
+    cmd = [sys.executable, "-m", "swarmactors", "sweep", str(scenario), *GRID, "--cluster", address,
+           "--out", str(out), "--json"]
+    cut = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not (out / "trials.csv").exists() or len(_rows(out / "trials.csv")) < 2:
+        assert time.monotonic() < deadline and cut.poll() is None, cut.communicate()
+        time.sleep(0.05)
+    cut.send_signal(signal.SIGINT)
+    _, err = cut.communicate(timeout=60)
+    assert cut.returncode == 130, err
+    done = _rows(out / "trials.csv")
+    assert 2 <= len(done) < 12
+    assert len({(r["run.processes"], r["radio.loss"], r["trial"]) for r in done}) == len(done)
+    again = subprocess.run(cmd, capture_output=True, text=True, timeout=240)
+    assert again.returncode == 0, again.stderr
+    summary = json.loads(again.stdout)
+    assert summary["skipped"] == len(done) and summary["ran"] == 12 - len(done)
+    assert (out / "trials.csv").read_bytes() == local_csv
+
+
+@pytest.mark.slow
+def test_a_worker_killed_mid_trial_is_rescheduled_and_each_row_appears_once(cluster, scenario, tmp_path):
+    address, client = cluster
+    out = tmp_path / "killed"
+    slow = scenario.parent / "cl-slow.toml"
+    slow.write_text(SCENARIO.replace("ticks = 12", "ticks = 400"))
+    cmd = [sys.executable, "-m", "swarmactors", "sweep", str(slow), "--grid", "radio.loss=0,0.2", "--trials", "2",
+           "--cluster", address, "--out", str(out), "--json"]
+    sweep = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    pids = client.run(os.getpid)
+    victim, deadline = None, time.monotonic() + 120
+    while victim is None:
+        assert time.monotonic() < deadline and sweep.poll() is None, sweep.communicate()
+        for worker, keys in client.processing().items():
+            if any(str(k).startswith("swarmactors-trial-") for k in keys) and worker in pids:
+                victim = pids[worker]
+        time.sleep(0.1)
+    time.sleep(1.5)  # the trial's child process is starting or running
+    os.kill(victim, signal.SIGKILL)
+    out_text, err = sweep.communicate(timeout=240)
+    assert sweep.returncode == 0, err
+    assert json.loads(out_text)["ran"] == 4
+    rows = _rows(out / "trials.csv")
+    assert sorted((r["radio.loss"], r["trial"]) for r in rows) == [("0", "0"), ("0", "1"), ("0.2", "0"),
+                                                                    ("0.2", "1")]
+    assert {r["passed"] for r in rows} == {"true"} and not any(r["error"] for r in rows)
+    client.wait_for_workers(2, timeout=60)  # the nanny restarted the killed worker, for the tests after this one
+
+
+@pytest.mark.slow
+def test_check_flooding_quick_on_the_cluster(cluster, tmp_path):
+    from swarmactors.conformance import select
+    from test_pins import CASE_PINS
+
+    address, _ = cluster
+    report = tmp_path / "check.json"
+    assert main(["check", "flooding", "--quick", "--cluster", address, "--out", str(tmp_path / "runs"),
+                 "--json", str(report)]) == 0
+    results = json.loads(report.read_text())
+    assert [r["case"] for r in results] == [c.name for _, c in select("flooding", "quick")]
+    assert all(r["passed"] for r in results)
+    for r in results:  # the same runs as locally: the pinned trace hashes, and K = 2 agreed
+        assert [o["passed"] for o in r["outcomes"] if o["name"] == "determinism"] == [True]
+        if r["case"] in CASE_PINS:
+            assert r["trace_hash"] == CASE_PINS[r["case"]], r["case"]
+
+
+@pytest.mark.slow
+def test_a_behaviour_module_missing_on_the_workers_names_module_and_worker(cluster, tmp_path, capsys, monkeypatch):
+    address, client = cluster
+    (tmp_path / "only_here_beh.py").write_text(
+        "from protocols.flooding.behavior import Flooding\n\nclass Mine(Flooding):\n    pass\n")
+    scenario = tmp_path / "mine.toml"
+    scenario.write_text(SCENARIO)
+    monkeypatch.chdir(tmp_path)  # importable here (beside the scenario), not on the workers
+    code = main(["sweep", str(scenario), "--set", 'robots.0.behaviors.0.use="only_here_beh:Mine"',
+                 "--cluster", address, "--out", str(tmp_path / "s"), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    workers = sorted(client.scheduler_info()["workers"])
+    assert "'only_here_beh'" in err and any(w in err for w in workers), err
+    assert not (tmp_path / "s" / "trials.csv").exists()
+
+
+def test_an_unreachable_scheduler_exits_3_naming_it(tmp_path, capsys, monkeypatch):
+    pytest.importorskip("distributed")
+    scenario = tmp_path / "cl.toml"
+    scenario.write_text(SCENARIO)
+    monkeypatch.setenv("SWARMACTORS_CLUSTER_TIMEOUT", "1")
+    code = main(["sweep", str(scenario), "--cluster", "tcp://127.0.0.1:9", "--out", str(tmp_path / "s"), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 3, err
+    assert "tcp://127.0.0.1:9" in err and "Dask scheduler" in err
+    assert not (tmp_path / "s").exists()
+    assert main(["check", "flooding", "--cluster", "tcp://127.0.0.1:9", "--out", str(tmp_path / "c")]) == 3
+    assert "tcp://127.0.0.1:9" in capsys.readouterr().err
+    assert main(["sweep", str(scenario), "--cluster", "no-port", "--quiet"]) == 2
+    assert "--cluster 'no-port'" in capsys.readouterr().err
+
+
+def test_a_sweep_file_with_an_unknown_key_exits_2_naming_file_and_key(tmp_path, capsys):
+    (tmp_path / "cl.toml").write_text(SCENARIO)
+    spec = tmp_path / "exp.toml"
+    spec.write_text('[sweep]\nscenario = "cl.toml"\ntrials = 2\ngrid = { "radio.loss" = [0, 0.1] }\nworkers = 3\n')
+    assert main(["sweep", str(spec), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert str(spec) in err and "'sweep.workers'" in err
+    spec.write_text('[sweep]\nscenario = "cl.toml"\n[extra]\n')
+    assert main(["sweep", str(spec), "--quiet"]) == 2
+    assert "'extra'" in capsys.readouterr().err
+    spec.write_text('[sweep]\nscenario = "cl.toml"\ntrials = 0\n')
+    assert main(["sweep", str(spec), "--quiet"]) == 2
+    assert "'sweep.trials'" in capsys.readouterr().err
+
+
+def test_a_sweep_file_is_the_sweep_of_its_options(tmp_path):
+    from swarmactors.sweep import plan
+
+    (tmp_path / "cl.toml").write_text(SCENARIO)
+    spec = tmp_path / "exp.toml"
+    spec.write_text('[sweep]\nscenario = "cl.toml"\nset = ["radio.loss=0.1"]\ntrials = 3\n'
+                    'grid = { "robots.0.count" = [4, 6] }\nout = "o"\n')
+    a = plan(spec, [], [], None, None)
+    b = plan(tmp_path / "cl.toml", ["radio.loss=0.1"], ["robots.0.count=4,6"], 3, Path("o"))
+    assert (a.identity["overrides"], a.grid, a.trials, a.out) == (b.identity["overrides"], b.grid, b.trials, b.out)
+    assert a.all_trials() == b.all_trials() and a.identity == b.identity
+    assert plan(spec, [], ["radio.range=1,2"], 1, None).keys == ["robots.0.count", "radio.range"]
