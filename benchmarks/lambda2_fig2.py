@@ -2,7 +2,7 @@
 """Fig. 2 of seed 003 (Sec. II-B) in the emulator: iterations until the λ2 estimate is within 1 %.
 
     python benchmarks/lambda2_fig2.py [--quick] [--jobs 2] [--img docs/img] \
-        [--out benchmarks/results/lambda2_fig2.json]
+        [--out docs/img/lambda2-fig2-data.json]
 
 Every point is a real run (lockstep, c = 1 tick, range 1, one L2 frame per robot per tick, per-receiver
 loss p): the three methods (PI1, PI2, Wave) on connected random geometric graphs
@@ -163,7 +163,7 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--img", type=Path, default=ROOT / "docs" / "img")
-    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "lambda2_fig2.json")
+    ap.add_argument("--out", type=Path, default=ROOT / "docs" / "img" / "lambda2-fig2-data.json")
     args = ap.parse_args()
     todo = jobs(args.quick)
     t0 = time.time()

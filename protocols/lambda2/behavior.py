@@ -4,8 +4,9 @@ One iteration per tick. After iteration k every robot broadcasts one L2 frame {k
 s_i, plus what the method piggybacks); at iteration k + 1 it uses the values its neighbours sent.
 
 * R1 (drop = "drop", the authors' makeAnoisy) - only the frames that arrived since the last iteration are
-  used; a lost frame removes both its x_j and its share of the degree for that iteration. In realtime a
-  robot that heard nobody since its last iteration (a late tick, not a loss) uses the held values instead.
+  used; a lost frame removes both its x_j and its share of the degree for that iteration. In realtime (where
+  a late frame and a lost one look alike) each neighbour's value of the previous iteration is used, or its
+  latest older one within ``hold`` iterations.
   (drop = "reuse") - the last value heard from each neighbour within ``hold`` iterations is used.
 * R2 - a frame that is not a dict of finite numbers, or whose k is from the future (k > own k, one more in
   realtime), is refused and counted by cause; it changes nothing.
@@ -53,7 +54,7 @@ class Lambda2(Behavior):
         self.window, self.at = window, at
         self.k = -1 - self.warmup - at  # iteration of the state held (k < 0: before iteration 0)
         self.x = 0.0
-        self.heard: dict[int, tuple[int, dict]] = {}  # neighbour -> (own k at receipt, body)
+        self.heard: dict[int, dict[int, tuple[int, dict]]] = {}  # neighbour -> its k -> (own k at receipt, body)
         self.fresh: set[int] = set()  # neighbours heard since the last iteration
         self.ever: set[int] = set()
         self.dm = 0  # warm-up max-degree flood
@@ -104,24 +105,38 @@ class Lambda2(Behavior):
         if body["k"] > self.k + slack:  # R2: an iteration number from the future
             self.refused["future"] += 1
             return
-        old = self.heard.get(frame.src)
-        if old is not None and old[1]["k"] > body["k"]:
+        kept = self.heard.setdefault(frame.src, {})
+        if len(kept) >= 3 and body["k"] < min(kept):  # older than the three iterations kept
             self.refused["stale"] += 1
             return
-        self.heard[frame.src] = (self.k, body)
+        kept[body["k"]] = (self.k, body)
+        if len(kept) > 3:
+            del kept[min(kept)]
         self.fresh.add(frame.src)
         if "dm" in body:
             self.dm = max(self.dm, int(body["dm"]))
         if "n" in body and body["n"][0] > self.norm[0]:  # PI1 flood: the latest epoch wins
             self.norm = (body["n"][0], float(body["n"][1]), body["n"][2])
 
-    def _neighbours(self, realtime: bool) -> list[tuple[int, dict]]:
-        """R1: the bodies used this iteration, by neighbour id (realtime, none fresh: the held ones)."""
-        if self.drop == "drop" and (self.fresh or not realtime):
-            ids = sorted(self.fresh)
-        else:
-            ids = sorted(j for j, (k, _) in self.heard.items() if self.k - k < self.hold)
-        return [(j, self.heard[j][1]) for j in ids]
+    def _neighbours(self, k: int, realtime: bool) -> list[tuple[int, dict]]:
+        """R1: the bodies iteration k combines, by neighbour id.
+
+        Lockstep: each neighbour's latest body, "drop" only from those heard since the last iteration, "reuse"
+        from those heard within ``hold`` iterations. Realtime (a late frame and a lost one look alike): each
+        neighbour's body of iteration k − 1, or its latest older one, if not more than ``hold`` old.
+        """
+        out = []
+        for j in sorted(self.heard):
+            kept = self.heard[j]
+            if realtime:
+                older = [kb for kb in kept if kb <= k - 1]
+                if older and k - 1 - max(older) < self.hold:
+                    out.append((j, kept[max(older)][1]))
+                continue
+            at, body = kept[max(kept)]
+            if (j in self.fresh) if self.drop == "drop" else (self.k - at < self.hold):
+                out.append((j, body))
+        return out
 
     # -------------------------------------------------------------- iterate
     def on_start(self, ctx: Context) -> None:
@@ -131,7 +146,7 @@ class Lambda2(Behavior):
         k = ctx.tick - self.at - self.warmup
         if ctx.tick < self.at or k <= self.k:
             return
-        nbrs = self._neighbours(ctx.clock == "realtime")
+        nbrs = self._neighbours(k, ctx.clock == "realtime")
         self.fresh = set()
         self.ever.update(j for j, _ in nbrs)
         self.k = k
