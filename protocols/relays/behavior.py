@@ -1,0 +1,606 @@
+"""Swarm Relays: the robot side (002 Sec. IV). Imports no oracle.
+
+Message kinds (every rule is a message exchange or a local computation; docs/protocols/relays.md):
+
+* VS_PUT / VS_QUERY / VS_DIGEST - the virtual stigmergy (protocols/stigmergy). Table ``relay``: ``root``
+  (the station's position), ``target/<t>`` ({pos, at}, written by the root), ``plan/<t>`` (the worker's
+  tuple {pi, pe, pig, n, why}). Table ``elect`` (lowest value wins): ``worker/<t>`` = [distance, id].
+* REL_CHAIN - the periodic status broadcast, every tick: {r role, c chain, p parent, ch child, d depth,
+  up: ids from the sender towards the root, dn: ids from the sender towards the worker (k each beyond the
+  sender), ok: the chain's worker reached its target}. C_local = up + dn of parent and child (Sec. IV-B).
+* REL_TASK / REL_BID / REL_JOIN - recruiting by CBAA: the recruiter opens a slot {key, pos, close}; free
+  robots that hear it bid 1/(1 + distance to pos) and run max-consensus on (bid, -id) per slot (CBAA's
+  auction and consensus phases, one task per robot); at ``close`` the recruiter sends REL_JOIN to the
+  winner it holds, which becomes a networker between the recruiter and the root (Prop. 1).
+* REL_NEED - without WP prediction, the chain's head asks for a robot when its parent link is at d_s; the
+  request travels parent by parent down to the robot linked to the root, which recruits.
+
+Rules:
+
+* R1 election - each target gets a worker by the stigmergy election (lowest distance), elections one after
+  the other (E4 of protocols/stigmergy), each open ``bid_time``; the root never bids.
+* R2 plan - ``plan_time`` after winning, the worker plans pi from the root's position to its target on its
+  known map (planner.py: flood fill for PE, A* with an iteration budget) and writes the tuple. A target
+  inside an obstacle or outside the planning area, or an unreachable one, is written with pe = false and
+  the reason; no chain is built for it.
+* R3 plan read - a plan entry that is not a well-formed tuple is refused and counted (``refused``), once
+  per version; the robot keeps the last good plan.
+* R4 motion - motion.py (Eqs. 6-8 with the stated reading of Eq. 8, collision bound); the root stands
+  still; free robots stay within d_s of the root and step aside from chain robots.
+* R5 recruiting - with WP prediction the robot linked to the root recruits as soon as that link reaches
+  d_s - v_max dt; without it, only after a REL_NEED from the head.
+* R6 link failure - a parent or child not heard for ``link_fail`` is declared failed. A robot that lost
+  its parent moves back along pi (Eq. 6 with d_P = inf) until a robot of its C_local up-list (or the root)
+  is within d_s, then takes it as parent; a robot that lost its child acts as a temporary worker (moves
+  forward, recruits) until a robot names it as parent; a temporary worker that reaches the target becomes
+  the worker.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+
+import numpy as np
+
+from protocols.relays import motion, planner
+from protocols.relays.zones import robots_needed
+from protocols.stigmergy.behavior import Election
+from protocols.stigmergy.table import KINDS as VS_KINDS
+from protocols.stigmergy.table import Stigmergy
+from swarmactors import Behavior, Context, Frame
+from swarmactors.behavior import is_int, is_num
+
+CHAIN, TASK, BID, JOIN, NEED = "REL_CHAIN", "REL_TASK", "REL_BID", "REL_JOIN", "REL_NEED"
+ROOT, WORKER, NETWORKER, FREE = "root", "worker", "networker", "free"
+
+
+def valid_plan(v) -> str | None:
+    """Why a plan tuple read from the stigmergy is malformed, or None when it is well formed."""
+    if not isinstance(v, dict):
+        return "not a table"
+    if not isinstance(v.get("pe"), bool):
+        return "pe is not a boolean"
+    if not v["pe"]:
+        return None
+    for key in ("pi", "pig"):
+        pts = v.get(key)
+        if not isinstance(pts, list) or len(pts) < 2:
+            return f"{key} is not a list of at least 2 points"
+        for p in pts:
+            if not isinstance(p, list) or len(p) not in (2, 3) or not all(is_num(c) for c in p):
+                return f"{key} has a point that is not [x, y] or [x, y, z] of finite numbers"
+    if not is_int(v.get("n")) or v["n"] < 1:
+        return "n is not a positive integer"
+    return None
+
+
+class Relays(Behavior):
+    """Self-healing connectivity chains from a root to targets (Swarm Relays, 002)."""
+
+    name = "relays"
+    kinds = (*VS_KINDS, CHAIN, TASK, BID, JOIN, NEED)
+    plot_field = "role"
+
+    def __init__(self, targets: list, root: int = 0, at: int = 1, ds: float = 1.4, dc: float = 1.6,
+                 db: float = 1.8, vmax: float = 0.5, rcol: float = 0.25, plan_time: float = 2.0,
+                 bid_time: float = 10.0, recruit_time: float = 1.0, forget_time: float = 3.0,
+                 link_fail: float = 5.0, k: int = 8, wp: bool = False, resolution: float = 0.25,
+                 budget: int = 20000, clearance: float = 0.4, area: list | None = None, lookahead: float = 0.5):
+        self.targets = [[float(c) for c in t] for t in targets]
+        self.root, self.at = root, at
+        self.ds, self.dc, self.db, self.vmax, self.rcol = ds, dc, db, vmax, rcol
+        self.times = {"plan": plan_time, "bid": bid_time, "recruit": recruit_time, "forget": forget_time,
+                      "fail": link_fail}
+        self.k, self.wp, self.res, self.budget, self.clearance = k, wp, resolution, budget, clearance
+        self.area, self.lookahead = area, lookahead
+        self.node = Stigmergy()
+        self.role, self.chain, self.parent, self.child, self.depth = FREE, None, None, None, None
+        self.up: list[int] = []
+        self.dn: list[int] = []
+        self.done = False  # the chain's worker is at its target now (propagated down, not sticky)
+        self.heard: dict[int, tuple[int, dict]] = {}  # neighbour -> (tick, last REL_CHAIN body)
+        self.sensed: dict[int, np.ndarray] = {}
+        self.elections: dict[int, Election] = {}
+        self.plan: dict | None = None
+        self.plan_seen: tuple | None = None
+        self.path: tuple[np.ndarray, np.ndarray] | None = None
+        self.s: float | None = None
+        self.planned_at: int | None = None
+        self.won_at: int | None = None
+        self.reached_at: int | None = None
+        self.plan_status: str | None = None
+        self.refused: Counter = Counter()
+        self.slots: dict[str, dict] = {}  # CBAA: open slots heard {pos, close, y, z, owner, chain}
+        self.choice: str | None = None  # the slot this free robot bids on
+        self.pending: dict[int, dict] = {}  # chain -> this robot's own open slot
+        self.root_asked = -10**9
+        self.serial = 0
+        self.need_until = -1
+        self.need_sent = -10**9
+        self.parent_lost = False
+        self.acked = True  # my child has named me as its parent (False for a recruit until it does)
+        self.failed: list[list] = []  # [tick, id] links declared failed
+        self.splices: list[list] = []  # [tick, "parent"|"child", id]
+        self.joined: list[list] = []  # [tick, recruited id] (recruiter) or [tick, chain] (recruit)
+        self.root_pos: np.ndarray | None = None
+
+    @staticmethod
+    def validate(params: dict) -> str | None:
+        t = params.get("targets")
+        if not isinstance(t, list) or not t or not all(
+                isinstance(p, list) and len(p) in (2, 3) and all(is_num(c) for c in p) for p in t):
+            return f"targets = {t!r} must be a non-empty list of [x, y] or [x, y, z] points"
+        for key in ("ds", "dc", "db", "vmax", "rcol", "plan_time", "bid_time", "recruit_time", "forget_time",
+                    "link_fail", "resolution", "clearance", "lookahead"):
+            v = params.get(key)
+            if v is not None and (not is_num(v) or v <= 0):
+                return f"{key} = {v!r} must be a positive number"
+        ds, dc, db = params.get("ds", 1.4), params.get("dc", 1.6), params.get("db", 1.8)
+        if not ds < dc < db:
+            return f"zones must satisfy ds < dc < db (got ds = {ds}, dc = {dc}, db = {db})"
+        for key, low in (("root", 0), ("at", 0), ("k", 1), ("budget", 1)):
+            v = params.get(key)
+            if v is not None and (not is_int(v) or v < low):
+                return f"{key} = {v!r} must be an integer >= {low}"
+        a = params.get("area")
+        if a is not None and not (isinstance(a, list) and len(a) == 2 and all(
+                isinstance(c, list) and len(c) >= 2 and all(is_num(x) for x in c) for c in a)
+                and a[0][0] < a[1][0] and a[0][1] < a[1][1]):
+            return f"area = {a!r} must be [[x0, y0], [x1, y1]] with x0 < x1 and y0 < y1"
+        if not isinstance(params.get("wp", False), bool):
+            return "wp must be true or false"
+        return None
+
+    # ------------------------------------------------------------------ helpers
+    def _ticks(self, ctx: Context, what: str) -> int:
+        return max(1, round(self.times[what] / ctx.dt))
+
+    def _pos(self, ctx: Context) -> np.ndarray:
+        return np.array(ctx.position[:2], dtype=float)
+
+    def _dist(self, ctx: Context, j: int | None) -> float:
+        if j is None:
+            return math.inf
+        if j == ctx.id:
+            return 0.0
+        p = self.sensed.get(j)
+        return math.inf if p is None else float(np.linalg.norm(p - self._pos(ctx)))
+
+    def _alive(self, ctx: Context, j: int | None) -> bool:
+        if j is None:
+            return False
+        if j == self.root:
+            return True if j in self.sensed or j == ctx.id else j in self.heard
+        h = self.heard.get(j)
+        return h is not None and ctx.tick - h[0] <= self._ticks(ctx, "fail")
+
+    def _publish(self, ctx: Context) -> None:
+        ctx.set_status(role=self.role, chain=self.chain, parent=self.parent, child=self.child, depth=self.depth)
+
+    # ------------------------------------------------------------------ receive
+    def on_start(self, ctx: Context) -> None:
+        self.node.attach(ctx)
+        self.rel = self.node.create("relay")
+        self.vote = self.node.create("elect", "lower_value")
+        if ctx.id == self.root:
+            self.role, self.depth = ROOT, 0
+        self._publish(ctx)
+
+    def on_frame(self, ctx: Context, frame: Frame) -> None:
+        if self.node.on_frame(ctx, frame):
+            return
+        body = frame.body
+        if not isinstance(body, dict):
+            self.refused["malformed " + frame.kind] += 1
+            return
+        handler = {CHAIN: self._on_chain, TASK: self._on_task, BID: self._on_bid, JOIN: self._on_join,
+                   NEED: self._on_need}[frame.kind]
+        try:
+            handler(ctx, frame.src, body)
+        except (KeyError, TypeError, ValueError, IndexError):
+            self.refused["malformed " + frame.kind] += 1
+
+    def _on_chain(self, ctx: Context, src: int, b: dict) -> None:
+        """Status broadcast: remember it; take chain, depth and C_local from parent and child."""
+        if not isinstance(b.get("r"), str):
+            raise ValueError
+        up, dn = [int(x) for x in b.get("up", [])], [int(x) for x in b.get("dn", [])]
+        self.heard[src] = (ctx.tick, b)
+        if src == self.parent and self.role in (WORKER, NETWORKER):
+            self.chain = b.get("c") if src != self.root else self.chain
+            self.depth = int(b["d"]) + 1 if is_int(b.get("d")) else self.depth
+            self.up = [ctx.id] + up[: self.k]
+        if (self.role in (WORKER, NETWORKER) and self.parent == self.root and src != self.root
+                and b.get("ch") == ctx.id and b.get("p") == self.root and b.get("c") == self.chain
+                and self._dist(ctx, src) <= self.ds):
+            self.parent, self.depth = src, 2  # Prop. 1: a recruit now sits between the root and me
+            self.up = [ctx.id] + up[: self.k]
+        if src == self.child:
+            self.acked = self.acked or b.get("p") == ctx.id
+            self.dn = [ctx.id] + dn[: self.k]
+            self.done = bool(b.get("ok"))
+        if (self.role in (WORKER, NETWORKER) and self.child is None and b.get("p") == ctx.id
+                and b.get("c") == self.chain and src != self.parent):  # R6: a lower robot spliced to me
+            self.child = src
+            self.splices.append([ctx.tick, "child", src])
+
+    def _on_task(self, ctx: Context, src: int, b: dict) -> None:
+        """CBAA: a recruiter opened a slot; a free robot adds it to its task list."""
+        key, close = str(b["key"]), int(b["close"])
+        if self.role == FREE and key not in self.slots and close > ctx.tick:
+            self.slots[key] = {"pos": [float(v) for v in b["pos"][:2]], "close": close, "y": -math.inf,
+                               "z": None, "owner": src, "chain": b.get("c")}
+
+    def _on_bid(self, ctx: Context, src: int, b: dict) -> None:
+        """CBAA consensus: keep the larger (bid, -id) per slot; an outbid robot bids again next tick."""
+        for key, (y, z) in b["bids"].items():
+            slot = self.slots.get(key) or next((p for p in self.pending.values() if p["key"] == key), None)
+            if slot is None or not is_num(y) or not is_int(z):
+                continue
+            if (y, -z) > (slot["y"], -(slot["z"] if slot["z"] is not None else 10**9)):
+                slot["y"], slot["z"] = float(y), int(z)
+                if self.choice == key and z != ctx.id:
+                    self.choice = None
+
+    def _on_join(self, ctx: Context, src: int, b: dict) -> None:
+        """A recruiter's call: a free robot becomes a networker between the root and the recruiter."""
+        if self.role != FREE:
+            return
+        self.role, self.chain, self.parent, self.child = NETWORKER, b["c"], int(b["parent"]), int(b["child"])
+        self.depth = 1
+        self.up, self.dn = [ctx.id, self.parent], [ctx.id, self.child]
+        self.slots, self.choice = {}, None
+        self.joined.append([ctx.tick, self.chain])
+        self.acked = False
+        for j in (self.parent, self.child):  # a new link starts as heard: it has link_fail to show up
+            if j not in self.heard or self.heard[j][0] < ctx.tick:
+                self.heard[j] = (ctx.tick, {**self.heard.get(j, (0, {}))[1], "r": None})
+        self._load_plan(ctx)
+
+    def _on_need(self, ctx: Context, src: int, b: dict) -> None:
+        """The head's request for a robot travels towards the root (Sec. IV, without WP)."""
+        if self.role == ROOT:  # a base without free neighbours: the root recruits in front of it
+            c = b.get("c")
+            h = self.heard.get(src)
+            if is_int(c) and c not in self.pending and h is not None and h[1].get("p") == ctx.id:
+                self._open(ctx, c, src)
+            return
+        if self.role not in (WORKER, NETWORKER) or src != self.child:
+            return
+        if self.parent == self.root:
+            self.need_until = ctx.tick + self._ticks(ctx, "recruit")
+        elif self.parent is not None:
+            ctx.send(self.parent, NEED, {"c": self.chain})
+
+    # ------------------------------------------------------------------ tick
+    def on_tick(self, ctx: Context, sensed) -> None:
+        self.sensed = {s.id: np.array(s.pos[:2], dtype=float) for s in sensed}
+        self._root_position(ctx)
+        if ctx.id == self.root and ctx.tick == self.at:
+            for t, pos in enumerate(self.targets):
+                self.rel.put(f"target/{t}", {"pos": pos, "at": ctx.tick})
+        self._elect(ctx)
+        if self.role == WORKER and self.plan is None and self.won_at is not None \
+                and ctx.tick >= self.won_at + self._ticks(ctx, "plan") and self.plan_status is None:
+            self._make_plan(ctx)
+        if self.role in (WORKER, NETWORKER):
+            self._load_plan(ctx)
+            self._links(ctx)
+        if self.role in (ROOT, WORKER, NETWORKER):
+            self._recruit(ctx)
+        if self.role == FREE:
+            self._bid(ctx)
+        self._move(ctx)
+        self._broadcast(ctx)
+        self.node.flush(ctx)
+        self._publish(ctx)
+
+    def _root_position(self, ctx: Context) -> None:
+        if ctx.id == self.root:
+            self.root_pos = self._pos(ctx)
+            if self.rel.peek("root") is None:
+                self.rel.put("root", [float(v) for v in self.root_pos])
+        elif self.root in self.sensed:
+            self.root_pos = self.sensed[self.root]
+        elif self.root_pos is None and isinstance(self.rel.peek("root"), list):
+            self.root_pos = np.array(self.rel.peek("root")[:2], dtype=float)
+
+    def _elect(self, ctx: Context) -> None:
+        """R1: one election per target, one after the other; a winner becomes that target's worker."""
+        bid_ticks = self._ticks(ctx, "bid")
+        for t in range(len(self.targets)):
+            if t in self.elections:
+                continue
+            entry = self.rel.peek(f"target/{t}")
+            if not isinstance(entry, dict) or not is_int(entry.get("at")):
+                break
+            pos = entry.get("pos")
+            if not isinstance(pos, list) or not all(is_num(c) for c in pos):
+                self.refused["target"] += 1
+                self.elections[t] = None
+                continue
+
+            def bid(c, pos=pos):
+                if c.id == self.root or self.role != FREE:
+                    return None
+                return float(math.dist(self._pos(c), pos[:2]))
+
+            self.elections[t] = Election(self.vote, f"worker/{t}", bid, entry["at"] + t * bid_ticks, bid_ticks)
+        for t, el in sorted(self.elections.items()):
+            if el is None or el.elected_at is not None:
+                continue
+            el.step(ctx)
+            if el.elected_at is not None and el.winner == ctx.id and self.role == FREE:
+                self.role, self.chain, self.parent, self.child, self.depth = WORKER, t, self.root, None, 1
+                self.up, self.dn = [ctx.id, self.root], [ctx.id]
+                self.won_at = ctx.tick
+                self.slots, self.choice = {}, None
+
+    def _make_plan(self, ctx: Context) -> None:
+        """R2: reachability and A* on the known map, then the tuple <pi, PE, pi_g> into the stigmergy."""
+        target = self.targets[self.chain] if self.chain < len(self.targets) else None
+        entry = self.rel.peek(f"target/{self.chain}")
+        if isinstance(entry, dict):
+            target = entry["pos"]
+        start = self.root_pos if self.root_pos is not None else self._pos(ctx)
+        m = ctx.map
+        area = self.area
+        if area is None:
+            grid = m.grid if m is not None else None
+            if grid is not None:
+                o, cell = grid.get("origin", [0.0, 0.0]), grid.get("cell", 1.0)
+                rows = grid["layers"][0]["rows"] if "layers" in grid else grid["rows"]
+                area = [[o[0], o[1]], [o[0] + cell * len(rows[0]), o[1] + cell * len(rows)]]
+            else:
+                xs = [start[0], target[0]] + [p[0] for ob in (m.obstacles if m else []) for p in ob["xy"]]
+                ys = [start[1], target[1]] + [p[1] for ob in (m.obstacles if m else []) for p in ob["xy"]]
+                area = [[min(xs) - 3.0, min(ys) - 3.0], [max(xs) + 3.0, max(ys) + 3.0]]
+        why, pts = None, []
+        inside = (lambda x, y: m.inside([x, y, 0.0])) if m is not None else (lambda x, y: False)
+        if not (area[0][0] <= target[0] <= area[1][0] and area[0][1] <= target[1] <= area[1][1]):
+            why = "target outside the map"
+        elif inside(target[0], target[1]):
+            why = "target inside an obstacle"
+        else:
+            grid = planner.Grid(area, self.res, inside, self.clearance)
+            status, pts = planner.plan(grid, list(start), list(target[:2]), self.budget)
+            why = None if status == "ok" else {"outside": "target outside the map", "unreachable": "unreachable",
+                                               "budget": "planner budget exhausted"}[status]
+        self.plan_status = why or "ok"
+        if why is not None:
+            value = {"pe": False, "pi": [], "pig": [], "n": 0, "why": why}
+        else:
+            pi = [[round(p[0], 4), round(p[1], 4), 0.0] for p in pts]
+            value = {"pe": True, "pi": pi, "pig": [p[:2] for p in pi],
+                     "n": robots_needed(planner.length(pts), self.ds), "why": None}
+        self.planned_at = ctx.tick
+        self.rel.put(f"plan/{self.chain}", value)
+        self._load_plan(ctx)
+
+    def _load_plan(self, ctx: Context) -> None:
+        """R3: read this chain's plan tuple; refuse a malformed one (counted once per version)."""
+        if self.chain is None:
+            return
+        e = self.rel.entry(f"plan/{self.chain}")
+        if e is None or (e.ts, e.writer) == self.plan_seen:
+            return
+        self.plan_seen = (e.ts, e.writer)
+        why = valid_plan(e.value)
+        if why is not None:
+            self.refused["plan"] += 1
+            ctx.log(f"refused plan/{self.chain} from robot {e.writer}: {why}")
+            return
+        if e.value.get("pe"):
+            self.plan = e.value
+            self.path = motion.arc_points([p[:2] for p in e.value["pig"]])
+            self.s = None
+        else:
+            self.plan = e.value
+
+    def _links(self, ctx: Context) -> None:
+        """R6: declare failed links; splice a lost parent to a C_local ancestor within d_s.
+
+        A recruit that its child has not taken as parent within ``link_fail`` goes back to free (the root
+        gives up its slot at the same time and recruits again).
+        """
+        if self.role == NETWORKER and not self.acked and ctx.tick - self.joined[-1][0] > self._ticks(ctx, "fail"):
+            self.role, self.chain, self.parent, self.child, self.depth = FREE, None, None, None, None
+            self.plan = self.path = self.s = self.plan_seen = None
+            self.up, self.dn = [], []
+            self.joined.append([ctx.tick, "released"])
+            return
+        if self.parent is not None and not self._alive(ctx, self.parent) and self.parent != self.root:
+            self.failed.append([ctx.tick, self.parent])
+            self.parent_lost, self.parent = True, None
+        if self.child is not None and not self._alive(ctx, self.child):
+            self.failed.append([ctx.tick, self.child])
+            self.child = None
+            self.dn = [ctx.id]
+        if self.parent_lost:
+            for j in self.up[1:] + [self.root]:
+                if j != ctx.id and self._alive(ctx, j) and self._dist(ctx, j) <= self.ds:
+                    self.parent, self.parent_lost = j, False
+                    self.splices.append([ctx.tick, "parent", j])
+                    break
+        if self.role == NETWORKER and self.child is None and self.plan and self.plan.get("pe") \
+                and self.s is not None and self.path is not None and self.s >= self.path[1][-1] - self.rcol:
+            self.role = WORKER  # a temporary worker that reached the target
+
+    def _free_neighbours(self, ctx: Context) -> list[int]:
+        f = self._ticks(ctx, "forget")
+        return sorted(j for j, (t, b) in self.heard.items() if b.get("r") == FREE and ctx.tick - t <= f)
+
+    def _recruit(self, ctx: Context) -> None:
+        """R5: the head's NEED, the base's (or the root's) slot; CBAA on the recruiter's side."""
+        for chain in sorted(self.pending):
+            self._run_slot(ctx, chain)
+        if self.role == ROOT or self.plan is None or not self.plan.get("pe") or self.parent_lost:
+            return
+        head = self.child is None
+        stretched = self._dist(ctx, self.parent) >= self.ds - self.vmax * ctx.dt
+        every = self._ticks(ctx, "recruit")
+        if head and not self.wp and stretched and not self._at_target() and self.parent is not None \
+                and ctx.tick - self.need_sent >= every:
+            self.need_sent = ctx.tick
+            if self.parent == self.root:
+                self.need_until = ctx.tick + every
+            else:
+                ctx.send(self.parent, NEED, {"c": self.chain})
+        if self.parent != self.root or self.chain in self.pending:
+            return
+        want = stretched and not self.done and (self.wp or ctx.tick <= self.need_until)
+        if not want or self.root_pos is None:
+            return
+        if ctx.tick - self.root_asked >= every:  # the root, where free robots wait, recruits in front of me
+            self.root_asked = ctx.tick
+            ctx.send(self.root, NEED, {"c": self.chain})
+
+    def _open(self, ctx: Context, chain: int, child: int) -> None:
+        """Open a CBAA slot: a free robot to sit between the root and ``child``."""
+        self.serial += 1
+        key = f"{ctx.id}:{self.serial}"
+        close = ctx.tick + self._ticks(ctx, "recruit")
+        self.pending[chain] = {"key": key, "close": close, "y": -math.inf, "z": None, "child": child}
+        pos = self.root_pos if self.root_pos is not None else self._pos(ctx)
+        ctx.broadcast(TASK, {"key": key, "pos": [float(v) for v in pos], "close": close, "c": chain})
+
+    def _run_slot(self, ctx: Context, chain: int) -> None:
+        """Close a slot: call the winner; forget the slot once it joined, or when the call goes unanswered."""
+        p = self.pending[chain]
+        if p.get("called") is None:
+            if ctx.tick >= p["close"]:
+                if p["z"] is None:
+                    del self.pending[chain]
+                else:
+                    ctx.send(p["z"], JOIN, {"c": chain, "parent": self.root, "child": p["child"], "key": p["key"]})
+                    p["called"] = p["z"]
+            return
+        h = self.heard.get(p["child"])
+        if h is not None and h[1].get("p") == p["called"]:  # the child took the recruit as its parent
+            self.joined.append([ctx.tick, p["called"]])
+            del self.pending[chain]
+        elif ctx.tick > p["close"] + self._ticks(ctx, "fail"):
+            del self.pending[chain]
+
+    def _bid(self, ctx: Context) -> None:
+        """CBAA auction phase on a free robot: bid on the best slot it can win; share the slot table."""
+        self.slots = {k: s for k, s in self.slots.items() if s["close"] >= ctx.tick}
+        if self.choice not in self.slots:
+            self.choice = None
+        if self.choice is None:
+            best = None
+            for key, s in sorted(self.slots.items()):
+                c = 1.0 / (1.0 + math.dist(self._pos(ctx), s["pos"]))
+                if (c, -ctx.id) > (s["y"], -(s["z"] if s["z"] is not None else 10**9)) and (
+                        best is None or c > best[0]):
+                    best = (c, key)
+            if best is not None:
+                self.choice = best[1]
+                self.slots[best[1]]["y"], self.slots[best[1]]["z"] = best[0], ctx.id
+        if self.slots:
+            ctx.broadcast(BID, {"bids": {k: [s["y"], s["z"]] for k, s in self.slots.items() if s["z"] is not None}})
+
+    def _at_target(self) -> bool:
+        return self.path is not None and self.s is not None and self.s >= self.path[1][-1] - 1e-6 \
+            and self.child is None
+
+    # ------------------------------------------------------------------ motion
+    def _move(self, ctx: Context) -> None:
+        x = self._pos(ctx)
+        others = list(self.sensed.values())
+        u, links = np.zeros(2), []
+        if self.role == FREE and self.root_pos is not None:
+            v = self.root_pos - x
+            d = float(np.linalg.norm(v))
+            if d > self.ds:
+                u = v / d * min(self.vmax, (d - self.ds) / ctx.dt + 1e-9)
+            for j, (_t, b) in self.heard.items():  # step aside from chain robots
+                if b.get("r") in (WORKER, NETWORKER) and j in self.sensed:
+                    w = x - self.sensed[j]
+                    dw = float(np.linalg.norm(w))
+                    if 1e-9 < dw < 2 * self.rcol + 0.3:
+                        u = u + w / dw * self.vmax
+            n = float(np.linalg.norm(u))
+            if n > self.vmax:
+                u = u / n * self.vmax
+        elif self.role in (WORKER, NETWORKER) and self.path is not None:
+            p, cum = self.path
+            if self.s is None:
+                self.s = motion.project(p, cum, x)
+            else:
+                self.s = motion.project(p, cum, x, self.s - 1.0, self.s + 1.0)
+            dp = self._dist(ctx, self.parent) if not self.parent_lost else math.inf
+            dch = None if self.child is None else self._dist(ctx, self.child)
+            back = False
+            if self.child is None:
+                self.done = False
+            if self.role == WORKER and self.child is None and float(np.linalg.norm(x - p[-1])) <= self.rcol / 2 \
+                    and dp <= self.ds:
+                if self.reached_at is None:
+                    self.reached_at = ctx.tick
+                self.done = True
+                u = np.zeros(2)
+            else:
+                uf = motion.u_path(p, cum, self.s, x, True, self.vmax, ctx.dt, self.lookahead)
+                ub = motion.u_path(p, cum, self.s, x, False, self.vmax, ctx.dt, self.lookahead)
+                tc = self.sensed[self.child] - x if self.child in self.sensed else None
+                if tc is None and not self.acked:  # a recruit heading for a child it does not sense yet
+                    tc = uf
+                u = motion.preferred(uf, ub, dp, dch, self.ds, tc)
+                back = dp > self.ds
+            links = [(self.sensed[j], self.dc if j == self.child and back else self.ds)
+                     for j in (self.parent, self.child) if j is not None and j in self.sensed]
+        u = motion.constrain(u, x, links, others, self.rcol, ctx.dt)
+        u = self._clear_of_walls(ctx, x, u, lambda v: motion.constrain(v, x, links, others, self.rcol, ctx.dt))
+        ctx.move([float(u[0]), float(u[1])] + ([0.0] if len(ctx.position) == 3 else []))
+
+    def _clear_of_walls(self, ctx: Context, x: np.ndarray, u: np.ndarray, fix) -> np.ndarray:
+        """Keep the body (radius r_col/2) off the known obstacles.
+
+        A step whose end disc touches one is replaced by its part along a free axis (bounded again by
+        ``fix``, Eq. 8 and the collision rule), else by standing still.
+        """
+        m = ctx.map
+        if m is None or not float(np.linalg.norm(u)):
+            return u
+        r = self.rcol / 2 + 0.03
+        ring = [np.array([math.cos(a), math.sin(a)]) * r for a in np.linspace(0, 2 * math.pi, 8, endpoint=False)]
+
+        def clear(v):
+            end = x + v * ctx.dt
+            return not any(m.inside([float(p[0]), float(p[1]), 0.0]) for p in [end] + [end + q for q in ring])
+
+        if clear(u):
+            return u
+        for v in (np.array([u[0], 0.0]), np.array([0.0, u[1]])):
+            v = fix(v)
+            if clear(v):
+                return v
+        return np.zeros(2)
+
+    def _broadcast(self, ctx: Context) -> None:
+        if self.role == ROOT:
+            self.up, self.dn = [ctx.id], [ctx.id]
+        body = {"r": self.role, "c": self.chain, "p": self.parent, "ch": self.child, "d": self.depth,
+                "up": self.up[: self.k + 1], "dn": self.dn[: self.k + 1], "ok": self.done}
+        ctx.broadcast(CHAIN, body)
+
+    # ------------------------------------------------------------------ report
+    def report(self) -> dict:
+        return {
+            "role": self.role, "chain": self.chain, "parent": self.parent, "child": self.child, "depth": self.depth,
+            "won_at": self.won_at, "planned_at": self.planned_at, "plan_status": self.plan_status,
+            "reached_at": self.reached_at,
+            "path": self.plan["pi"] if self.plan and self.plan.get("pe") and self.role == WORKER else None,
+            "n": self.plan.get("n") if self.plan else None,
+            "refused": dict(self.refused), "failed": self.failed, "splices": self.splices, "joined": self.joined,
+            "stigmergy": self.node.counters(),
+        }
+
+    @classmethod
+    def metrics(cls, reports: dict[int, dict]) -> dict:
+        reached = [r["reached_at"] for r in reports.values() if r.get("reached_at") is not None]
+        return {"robots": len(reports), "reached": len(reached), "last_reached": max(reached, default=None),
+                "refused": sum(sum(r.get("refused", {}).values()) for r in reports.values()),
+                "in_chains": sum(r["role"] in (WORKER, NETWORKER) for r in reports.values())}

@@ -1,0 +1,92 @@
+"""Swarm Relays: scenarios and the conformance family (``swarmactors check relays``).
+
+A user's chain protocol replaces the built-in ``relays`` behaviour. It must publish, with ``set_status``,
+``role`` (root | worker | networker | free), ``chain`` (its target's index), ``parent``, ``child`` and
+``depth`` (the status contract the checks read), and report ``reached_at`` (the tick its worker reached the
+target, or null) and ``plan_status``.
+"""
+
+from __future__ import annotations
+
+from swarmactors.conformance import Case, Family
+
+# The paper's parameters (002 Sec. V); our tick is dt = 0.2 s (ARGoS' step is 0.1 s).
+PAPER = {"ds": 1.4, "dc": 1.6, "db": 1.8, "vmax": 0.5, "rcol": 0.25}
+
+
+def cluster(n: int, spacing: float = 0.5) -> list[list[float]]:
+    """The root at the origin and n - 1 robots beside it, on both sides of the x axis (the way out)."""
+    pts = [[0.0, 0.0]]
+    for i in range(n - 1):
+        c, r = divmod(i, 4)
+        side, row = (1, r // 2) if r % 2 == 0 else (-1, r // 2)
+        pts.append([round(spacing * c, 6), round(side * (0.5 + spacing * row), 6)])
+    return pts
+
+
+def relays_scenario(n: int = 10, targets: list | None = None, *, ticks: int = 600, seed: int = 1,
+                    dt: float = 0.2, loss: float = 0.0, obstacles: list | None = None, kills: list | None = None,
+                    clock: str = "lockstep", name: str = "relays", checks: list | None = None, dims: int = 2,
+                    bounds: list | None = None, positions: list | None = None, groups: list | None = None,
+                    **params) -> dict:
+    """A Swarm Relays run: ``n`` ground robots clustered at the root (robot 0), the targets given."""
+    targets = targets if targets is not None else [[8.0, 0.0]]
+    beh = {"use": "relays", "targets": targets, **params}
+    run = {"name": name, "seed": seed, "clock": clock, "ticks": ticks, "dt": dt}
+    radio = {"range": 2.0, "model": "distance", "delta": 0.15, "loss": loss}
+    if clock == "realtime":
+        radio.update(latency_s=dt / 4, latency_min_s=dt / 8)
+    world: dict = {"dims": dims}
+    if obstacles:
+        world["obstacles"] = obstacles
+    if bounds:
+        world["bounds"] = bounds
+    robots = groups or [{"positions": positions or cluster(n), "speed": PAPER["vmax"], "body_radius": 0.125,
+                         "knows_map": True, "behaviors": [beh]}]
+    sc = {"run": run, "radio": radio, "world": world, "robots": robots,
+          "checks": checks if checks is not None else default_checks()}
+    if kills:
+        sc["events"] = [{"at": at, "kill": ids} for at, ids in kills]
+    return sc
+
+
+def default_checks(heal: bool = False) -> list[dict]:
+    """The checks of a relays run; with ``heal``, a 20 s healing window and relays.healed."""
+    connected = {"use": "relays.connected", "heal_window": 20.0} if heal else {"use": "relays.connected"}
+    out = [connected, {"use": "relays.links_within_db"}, {"use": "relays.reached"}, {"use": "world.no_collisions"}]
+    return out + ([{"use": "relays.healed"}] if heal else [])
+
+
+C_SHAPE = [{"c_shape": {"center": [4.5, 0.0], "size": 3.0, "thickness": 0.4, "opening": "-x"}}]
+
+
+def _case(name: str, sc: dict, checks: list[dict] | None = None) -> Case:
+    sc = dict(sc)
+    sc["run"] = {k: v for k, v in sc["run"].items() if k != "name"}
+    sc.pop("checks", None)
+    return Case(f"relays/{name}", sc, checks if checks is not None else default_checks())
+
+
+def suite(mode: str) -> list[Case]:
+    """Open field, three consecutive failures, realtime; the full suite adds the C-shape, loss, WP."""
+    cases = [
+        _case("open-10", relays_scenario(10, [[8.0, 0.0]], ticks=260)),
+        _case("open-12-kill-3", relays_scenario(12, [[8.0, 0.0]], ticks=560, kills=[(250, [3, 6, 2])]),
+              default_checks(heal=True)),
+        _case("open-6-realtime", relays_scenario(6, [[3.0, 0.0]], ticks=200, dt=0.1, clock="realtime",
+                                                 bid_time=1.0)),
+    ]
+    if mode == "full":
+        cases += [
+            _case("c-shape-12", relays_scenario(12, [[8.0, 0.0]], ticks=600, obstacles=C_SHAPE)),
+            _case("open-10-kill-1-loss-0.1", relays_scenario(10, [[8.0, 0.0]], ticks=700, loss=0.1,
+                                                             kills=[(300, [6])]), default_checks(heal=True)),
+            _case("open-10-wp", relays_scenario(10, [[8.0, 0.0]], ticks=260, wp=True)),
+            _case("open-12-two-targets", relays_scenario(12, [[5.0, 3.0], [5.0, -3.0]], ticks=600)),
+        ]
+    return cases
+
+
+FAMILY = Family(name="relays", behavior="relays",
+                report={"reached_at": (int, type(None)), "plan_status": (str, type(None))},
+                suite=suite)

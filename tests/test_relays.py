@@ -1,0 +1,119 @@
+"""Swarm Relays over Zenoh (issue 16): chains built, reached, healed, judged by the oracle over the trace."""
+
+from __future__ import annotations
+
+import pytest
+
+from protocols.relays.behavior import Relays
+from protocols.relays.suite import C_SHAPE, default_checks, relays_scenario
+
+pytestmark = pytest.mark.slow  # every test runs scenarios over Zenoh
+
+
+def passed(result) -> dict[str, bool]:
+    return {c["name"]: c["passed"] for c in result.checks}
+
+
+def chain_of(result, worker_chain: int = 0) -> list[int]:
+    """The final chain from the worker up to the root, by the reports' parent pointers."""
+    reps = result.reports("relays")
+    (w,) = [r for r, rep in reps.items() if rep["role"] == "worker" and rep["chain"] == worker_chain]
+    out = [w]
+    while reps[out[-1]]["role"] != "root":
+        out.append(reps[out[-1]]["parent"])
+    return out
+
+
+def test_open_field_10_robots_chain_built_target_reached_same_hash_with_1_and_3_hosts(run):
+    sc = relays_scenario(10, [[8.0, 0.0]], ticks=260)
+    one = run(sc, processes=1)
+    assert all(c["passed"] for c in one.checks), one.checks
+    links = [c for c in one.checks if c["name"] == "relays.links_within_db"][0]
+    assert links["value"] <= 1.8
+    chain = chain_of(one)
+    assert len(chain) - 1 >= 6  # ceil(8 / 1.4) = 6 links at least
+    three = run(sc, processes=3)
+    assert three["trace_hash"] == one["trace_hash"]
+
+
+def test_c_shaped_obstacle_chain_goes_around_without_touching_it(run):
+    result = run(relays_scenario(12, [[8.0, 0.0]], ticks=600, obstacles=C_SHAPE))
+    assert all(c["passed"] for c in result.checks), result.checks
+    path = [r["path"] for r in result.reports("relays").values() if r["role"] == "worker"][0]
+    assert max(abs(p[1]) for p in path) > 1.5  # the path leaves the straight line to go around the C
+
+
+@pytest.mark.parametrize("kill,n,loss", [([6], 10, 0.0), ([6], 10, 0.1), ([3, 6, 2], 12, 0.0), ([3, 6, 2], 12, 0.1)])
+def test_consecutive_networker_failures_heal(run, kill, n, loss):
+    before = run(relays_scenario(n, [[8.0, 0.0]], ticks=250, loss=loss, checks=[]))
+    chain = chain_of(before)
+    assert set(kill) <= set(chain[1:-1]), (kill, chain)  # the killed robots are networkers of the chain
+    kills = [(250, kill)]
+    result = run(relays_scenario(n, [[8.0, 0.0]], ticks=650, loss=loss, kills=kills,
+                                 checks=default_checks(heal=True)))
+    assert all(c["passed"] for c in result.checks), result.checks
+    healed = [c for c in result.checks if c["name"] == "relays.healed"][0]
+    assert healed["value"] <= 5.0 + 20.0  # link-failure time plus the stated healing bound (s)
+    reps = result.reports("relays")
+    assert any(rep["splices"] for rep in reps.values())
+    assert not set(kill) & set(chain_of(result))
+
+
+def test_realtime_small_open_field(run):
+    result = run(relays_scenario(6, [[3.0, 0.0]], ticks=160, dt=0.1, clock="realtime", bid_time=1.0))
+    assert passed(result)["relays.reached"], result.checks
+    assert passed(result)["relays.links_within_db"], result.checks
+
+
+def test_target_inside_an_obstacle_or_outside_the_map_is_refused_not_looped_on(run):
+    box = [{"box": [[2.5, -0.5], [3.5, 0.5]]}]
+    result = run(relays_scenario(6, [[3.0, 0.0]], ticks=120, obstacles=box, bid_time=2.0,
+                                 checks=[{"use": "relays.reached"}]))
+    reps = result.reports("relays")
+    assert [r["plan_status"] for r in reps.values() if r["role"] == "worker"] == ["target inside an obstacle"]
+    assert all(r["role"] in ("root", "worker", "free") for r in reps.values())  # nobody recruited
+    assert passed(result)["relays.reached"] and "target inside an obstacle" in result.checks[0]["detail"]
+    result = run(relays_scenario(6, [[30.0, 0.0]], ticks=120, bid_time=2.0, area=[[-3.0, -3.0], [10.0, 3.0]],
+                                 checks=[]))
+    assert [r["plan_status"] for r in result.reports("relays").values() if r["role"] == "worker"] == [
+        "target outside the map"]
+
+
+def test_a_malformed_plan_in_the_stigmergy_is_refused_counted_and_survived(run):
+    sc = relays_scenario(10, [[6.0, 0.0]], ticks=230)
+    bad = {"pe": True, "pi": "not a path", "pig": [[0, 0]], "n": 1}
+    sc["robots"].append({"positions": [[-1.0, 0.0]], "behaviors": [
+        {"use": "stigmergy", "sid": "relay", "writes": [{"at": 3, "robot": 10, "key": "plan/0", "value": bad}]}]})
+    result = run(sc)
+    reps = result.reports("relays")
+    (worker,) = [r for r in reps.values() if r["role"] == "worker"]
+    assert worker["refused"] == {"plan": 1} and worker["plan_status"] == "ok"  # refused once, then its own plan
+    assert not any(rob.get("error") for rob in result.robots.values())
+    assert all(c["passed"] for c in result.checks), result.checks
+
+
+class RelaysNoSplice(Relays):
+    """Mutant: a robot that lost its parent never takes a new one (no splice)."""
+
+    def _links(self, ctx):
+        lost = self.parent_lost
+        super()._links(ctx)
+        if lost and not self.parent_lost:
+            self.parent, self.parent_lost = None, True
+
+
+class RelaysOverstretch(Relays):
+    """Mutant: Eq. 8 bounds links at 2.5 m instead of d_s (the checks still judge d_b = 1.8 m)."""
+
+    def on_start(self, ctx):
+        super().on_start(ctx)
+        self.ds, self.dc = 2.5, 2.6
+
+
+@pytest.mark.parametrize("mutant,check", [("RelaysNoSplice", "relays.healed"),
+                                          ("RelaysOverstretch", "relays.links_within_db")])
+def test_mutants_are_caught(run, mutant, check):
+    kills = [(250, [3, 6, 2])] if mutant == "RelaysNoSplice" else None
+    sc = relays_scenario(12, [[8.0, 0.0]], ticks=450 if kills else 250, kills=kills, checks=default_checks(True))
+    sc["robots"][0]["behaviors"][0].update({"use": f"test_relays:{mutant}", "as": "relays"})
+    assert passed(run(sc))[check] is False

@@ -1,0 +1,119 @@
+"""Swarm Relays' pure rules (protocols/relays: zones, planner, motion, plan validation), below Zenoh."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from protocols.relays import motion, planner
+from protocols.relays.behavior import Relays, valid_plan
+from protocols.relays.zones import BREAKAWAY, CRITICAL, OUT, SAFE, link_quality, robots_needed, zone
+
+DS, DC, DB = 1.4, 1.6, 1.8
+
+
+def test_zones_and_link_quality_follow_sec_iii_a():
+    assert [zone(d, DS, DC, DB) for d in (0.5, 1.4, 1.5, 1.6, 1.7, 1.8, 1.81)] == [
+        SAFE, SAFE, CRITICAL, CRITICAL, BREAKAWAY, BREAKAWAY, OUT]
+    assert link_quality(0.1, 2.0, 0.15) == 1.0  # d < delta
+    assert link_quality(1.4, 2.0, 0.15) == pytest.approx(math.exp(-0.15 * 1.4 / 2.0))
+    assert link_quality(2.01, 2.0, 0.15) == 0.0
+    assert robots_needed(8.0, DS) == 6 and robots_needed(2.8, DS) == 2 and robots_needed(0.1, DS) == 1
+
+
+def _box(x0, y0, x1, y1):
+    return lambda x, y: x0 <= x <= x1 and y0 <= y <= y1
+
+
+def test_planner_goes_around_a_wall_and_keeps_its_clearance():
+    wall = _box(2.0, -3.0, 2.4, 3.0)
+    grid = planner.Grid([[-1.0, -5.0], [6.0, 5.0]], 0.25, wall, clearance=0.4)
+    status, pts = planner.plan(grid, [0.0, 0.0], [5.0, 0.0], 100000)
+    assert status == "ok" and pts[0] == [0.0, 0.0] and pts[-1] == [5.0, 0.0]
+    assert planner.length(pts) > 2 * math.hypot(2.0, 3.0)  # around the end of the wall, not through it
+    for a, b in zip(pts, pts[1:], strict=False):  # no segment crosses the wall
+        for t in np.linspace(0, 1, 200):
+            assert not wall(a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]))
+
+
+def test_planner_reports_unreachable_outside_and_budget():
+    ring = lambda x, y: 1.0 <= math.hypot(x - 4, y) <= 1.5  # noqa: E731 - a closed ring around (4, 0)
+    grid = planner.Grid([[-1.0, -3.0], [7.0, 3.0]], 0.2, ring)
+    assert planner.plan(grid, [0.0, 0.0], [4.0, 0.0], 100000) == ("unreachable", [])
+    assert planner.plan(grid, [0.0, 0.0], [9.0, 0.0], 100000) == ("outside", [])
+    assert planner.plan(grid, [0.0, 0.0], [6.5, 2.5], 3) == ("budget", [])
+    a = planner.plan(grid, [0.0, 0.0], [6.5, 2.5], 100000)
+    assert a == planner.plan(grid, [0.0, 0.0], [6.5, 2.5], 100000)  # deterministic
+
+
+def test_eq6_7_forward_backward_and_fc():
+    uf, ub = np.array([0.5, 0.0]), np.array([-0.5, 0.0])
+    assert motion.preferred(uf, ub, 1.0, None, DS).tolist() == [0.5, 0.0]  # worker: no child, f_c = 1
+    assert motion.preferred(uf, ub, 1.0, 1.5, DS).tolist() == [0.0, 0.0]  # child beyond d_s: stop
+    assert motion.preferred(uf, ub, 1.0, 1.5, DS, to_child=np.array([1.0, 0.0])).tolist() == [0.5, 0.0]
+    assert motion.preferred(uf, ub, 1.5, 1.0, DS).tolist() == [-0.5, 0.0]  # parent beyond d_s: back
+
+
+def test_eq8_reading_bounds_only_separation_and_keeps_pairs_within_ds():
+    dt = 0.2
+    x, parent = np.array([1.3, 0.0]), np.array([0.0, 0.0])
+    u = motion.constrain(np.array([0.5, 0.3]), x, [(parent, DS)], [], 0.25, dt)
+    assert u[0] == pytest.approx((DS - 1.3) / (2 * dt)) and u[1] == pytest.approx(0.3)  # across: free
+    u = motion.constrain(np.array([0.5, 0.0]), np.array([1.5, 0.0]), [(parent, DS)], [], 0.25, dt)
+    assert u[0] <= 0.0  # Eq. 4: beyond d_s a pair may only close up
+    assert motion.constrain(np.array([-0.5, 0.0]), x, [(parent, DS)], [], 0.25, dt)[0] == -0.5  # closing: free
+    # both robots of a pair apply it: the pair ends within d_s (plus the across drift)
+    a, b = np.array([0.0, 0.0]), np.array([1.35, 0.0])
+    ua = motion.constrain(np.array([-0.5, 0.0]), a, [(b, DS)], [], 0.25, dt)
+    ub = motion.constrain(np.array([0.5, 0.0]), b, [(a, DS)], [], 0.25, dt)
+    assert np.linalg.norm((b + ub * dt) - (a + ua * dt)) <= DS + 1e-9
+
+
+def test_collision_rule_keeps_bodies_apart_and_turns_right():
+    dt, rcol = 0.2, 0.25
+    a, b = np.array([0.0, 0.0]), np.array([0.4, 0.0])
+    ua = motion.constrain(np.array([0.5, 0.0]), a, [], [b], rcol, dt)
+    ub = motion.constrain(np.array([-0.5, 0.0]), b, [], [a], rcol, dt)
+    assert np.linalg.norm((b + ub * dt) - (a + ua * dt)) >= rcol
+    assert ua[1] < 0 and ub[1] > 0  # each keeps to its right
+
+
+def test_path_following_tracks_arc_and_stops_at_the_end():
+    p, cum = motion.arc_points([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0]])
+    assert cum.tolist() == [0.0, 2.0, 4.0]
+    assert motion.point_at(p, cum, 3.0).tolist() == [2.0, 1.0]
+    s = motion.project(p, cum, np.array([2.1, 1.0]))
+    assert s == pytest.approx(3.0)
+    u = motion.u_path(p, cum, s, np.array([2.0, 1.0]), True, 0.5, 0.2, 0.5)
+    assert u.tolist() == pytest.approx([0.0, 0.5])
+    u = motion.u_path(p, cum, 4.0, np.array([2.0, 1.95]), True, 0.5, 0.2, 0.5)
+    assert u.tolist() == pytest.approx([0.0, 0.25])  # the last step lands on the end
+
+
+@pytest.mark.parametrize("value,why", [
+    ("path", "not a table"),
+    ({"pe": 1, "pi": [], "pig": [], "n": 1}, "pe is not a boolean"),
+    ({"pe": True, "pi": "x", "pig": [[0, 0], [1, 1]], "n": 1}, "pi is not a list of at least 2 points"),
+    ({"pe": True, "pi": [[0, 0], [1, float("nan")]], "pig": [[0, 0], [1, 1]], "n": 1}, "pi has a point"),
+    ({"pe": True, "pi": [[0, 0], [1, 1]], "pig": [[0, 0], [1, 1]], "n": 0}, "n is not a positive integer"),
+])
+def test_a_malformed_plan_is_refused_with_its_reason(value, why):
+    assert valid_plan(value).startswith(why)
+    assert valid_plan({"pe": True, "pi": [[0, 0, 0], [1, 1, 0]], "pig": [[0, 0], [1, 1]], "n": 1}) is None
+    assert valid_plan({"pe": False, "pi": [], "pig": [], "n": 0, "why": "unreachable"}) is None
+
+
+@pytest.mark.parametrize("params,fragment", [
+    ({}, "targets"),
+    ({"targets": [[1, "a"]]}, "targets"),
+    ({"targets": [[1, 0]], "ds": 1.7}, "ds < dc < db"),
+    ({"targets": [[1, 0]], "vmax": 0}, "vmax"),
+    ({"targets": [[1, 0]], "area": [[5, 0], [0, 5]]}, "area"),
+    ({"targets": [[1, 0]], "k": 0}, "k = 0"),
+    ({"targets": [[1, 0]], "wp": "yes"}, "wp"),
+])
+def test_bad_parameters_are_refused(params, fragment):
+    assert fragment in Relays.validate(params)
+    assert Relays.validate({"targets": [[8.0, 0.0]]}) is None
