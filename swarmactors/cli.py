@@ -23,7 +23,7 @@ from swarmactors import newproject, schedule_cli
 from swarmactors import scenario as scenario_mod
 from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME
 from swarmactors.hosting import HostError, serve_host
-from swarmactors.launcher import new_run_id, private_endpoints, run_dir, run_world, validate_run
+from swarmactors.launcher import new_run_id, private_endpoints, run_dir, run_world, scenario_file, validate_run
 from swarmactors.plugins import BEHAVIORS, PluginError, resolve
 from swarmactors.progress import RunProgress, summary_table
 from swarmactors.scenario import ScenarioError
@@ -217,7 +217,7 @@ def _main(args) -> int:
         if args.command in ("export", "new"):
             return (export_cli if args.command == "export" else newproject).command(args)
         if args.command == "sweep":
-            _scenario_file(args.scenario)
+            scenario_file(args.scenario)
         if args.command == "view":
             check_endpoint(args.connect)  # bad input (exit 2), not "cannot reach"
         if args.command in ("view", "replay", "sweep"):
@@ -245,25 +245,8 @@ def _user_modules_importable(scenario: str | None) -> None:
             sys.path.append(folder)
 
 
-def _scenario_file(path: str) -> None:
-    """A scenario path that is a readable UTF-8 file (ScenarioError naming it otherwise)."""
-    p = Path(path)
-    if p.is_dir():
-        hint = ", ".join(sorted(q.name for q in p.glob("*.toml"))[:5])
-        raise ScenarioError(path, "file", "is a directory, not a scenario file" + (
-            f" (it holds {hint}{', ...' if len(list(p.glob('*.toml'))) > 5 else ''})" if hint else ""))
-    try:
-        p.read_bytes().decode("utf-8")
-    except FileNotFoundError:
-        raise ScenarioError(path, "file", "no such file") from None
-    except UnicodeDecodeError as exc:
-        raise ScenarioError(path, "file", f"not UTF-8 text (a binary file?): byte {exc.start}") from None
-    except OSError as exc:
-        raise ScenarioError(path, "file", f"cannot read: {exc.strerror}") from None
-
-
 def _load(args) -> dict:
-    _scenario_file(args.scenario)
+    scenario_file(args.scenario)
     overrides = list(args.set)
     if args.seed is not None:
         overrides.append(f"run.seed={args.seed}")

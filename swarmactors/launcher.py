@@ -297,6 +297,25 @@ def metrics(sc: dict, reports: dict[int, dict]) -> dict:
     return out
 
 
+def scenario_file(path: str | Path) -> None:
+    """A scenario path that is a readable UTF-8 file (ScenarioError naming it otherwise, exit 2)."""
+    from swarmactors.scenario import ScenarioError
+
+    p, source = Path(path), str(path)
+    if p.is_dir():
+        names = sorted(q.name for q in p.glob("*.toml"))
+        hint = f" (it holds {', '.join(names[:5])}{', ...' if len(names) > 5 else ''})" if names else ""
+        raise ScenarioError(source, "file", "is a directory, not a scenario file" + hint)
+    try:
+        p.read_bytes().decode("utf-8")
+    except FileNotFoundError:
+        raise ScenarioError(source, "file", "no such file") from None
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(source, "file", f"not UTF-8 text (a binary file?): byte {exc.start}") from None
+    except OSError as exc:
+        raise ScenarioError(source, "file", f"cannot read: {exc.strerror}") from None
+
+
 def validate_run(sc: dict, source: str) -> None:
     """Refuse at load what would only fail after the run (ScenarioError naming the file and key, exit 2).
 
@@ -356,6 +375,7 @@ def resolve_run(scenario, processes: int | None = None, overrides: list[str] = (
     elif isinstance(scenario, dict):
         raw, source = copy.deepcopy(scenario), "<dict>"
     else:
+        scenario_file(scenario)
         raw, source = read_raw(scenario), str(scenario)
     for key, value in (settings or {}).items():
         set_value(raw, key.replace("__", "."), value, source)

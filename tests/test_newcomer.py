@@ -139,6 +139,15 @@ def test_scenario_errors_name_directory_and_binary_file(tmp_path, monkeypatch, c
     assert_one_line_error(err, "binary.toml", "not UTF-8")
 
 
+def test_python_api_names_a_directory_given_as_scenario(tmp_path):
+    import swarmactors
+    from swarmactors.scenario import ScenarioError
+
+    with pytest.raises(ScenarioError, match="is a directory"):
+        swarmactors.run(TESTS.parent / "scenarios", out=tmp_path / "o")
+    assert not (tmp_path / "o").exists()
+
+
 def test_check_output_to_a_directory_is_refused_before_running(tmp_path, monkeypatch, capsys):
     (tmp_path / "adir").mkdir()
     started = time.monotonic()
