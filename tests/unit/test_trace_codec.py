@@ -205,7 +205,8 @@ def test_write_read_round_trip_and_verify(tmp_path_factory, records):
     header, got, footer = read_trace(path)
     assert header == {"trace": "swarmactors", "version": VERSION, **HEADER}
     assert got == [my_canonical(r) for r in records]  # integer status keys come back as integers
-    assert footer == {"end": True, "ticks": len(records), "trace_hash": my_hash(records)}
+    header_hash = hashlib.blake2b(packb(header), digest_size=16).hexdigest()  # the header as written
+    assert footer == {"end": True, "ticks": len(records), "trace_hash": my_hash(records), "header_hash": header_hash}
     assert verify(path) == w.trace_hash == my_hash(records) == writer_hash(records)
     assert list(iter_trace(path)) == [header, *got, footer]
 
