@@ -17,8 +17,9 @@ Message kinds (every rule is a message exchange or a local computation; docs/pro
 
 Rules:
 
-* R1 election - each target gets a worker by the stigmergy election (lowest distance), elections one after
-  the other (E4 of protocols/stigmergy), each open ``bid_time``; the root never bids.
+* R1 election - each target gets a worker by the stigmergy election (lowest distance), all targets at once,
+  open ``bid_time``; a robot that wins several keeps the lowest target, the others are elected again (key
+  ``worker/<t>/<round>``) among the robots not taken; the root never bids.
 * R2 plan - ``plan_time`` after winning, the worker plans pi from the root's position to its target on its
   known map (planner.py: flood fill for PE, A* with an iteration budget) and writes the tuple. A target
   inside an obstacle or outside the planning area, or an unreachable one, is written with pe = false and
@@ -101,7 +102,10 @@ class Relays(Behavior):
         self.done = False  # the chain's worker is at its target now (propagated down, not sticky)
         self.heard: dict[int, tuple[int, dict]] = {}  # neighbour -> (tick, last REL_CHAIN body)
         self.sensed: dict[int, np.ndarray] = {}
-        self.elections: dict[int, Election] = {}
+        self.elections: dict[int, Election | None] = {}
+        self.settled: dict[int, int] = {}  # target -> its elected worker
+        self.rounds: dict[int, int] = {}
+        self.target_pos: dict[int, list] = {}
         self.plan: dict | None = None
         self.plan_seen: tuple | None = None
         self.path: tuple[np.ndarray, np.ndarray] | None = None
@@ -307,7 +311,11 @@ class Relays(Behavior):
             self.root_pos = np.array(self.rel.peek("root")[:2], dtype=float)
 
     def _elect(self, ctx: Context) -> None:
-        """R1: one election per target, one after the other; a winner becomes that target's worker."""
+        """R1: the elections of all targets run at once, ``bid_time`` long.
+
+        A robot that wins several keeps the lowest target; the others are elected again among the robots not
+        yet taken, in rounds of ``bid_time``.
+        """
         bid_ticks = self._ticks(ctx, "bid")
         for t in range(len(self.targets)):
             if t in self.elections:
@@ -320,22 +328,37 @@ class Relays(Behavior):
                 self.refused["target"] += 1
                 self.elections[t] = None
                 continue
-
-            def bid(c, pos=pos):
-                if c.id == self.root or self.role != FREE:
-                    return None
-                return float(math.dist(self._pos(c), pos[:2]))
-
-            self.elections[t] = Election(self.vote, f"worker/{t}", bid, entry["at"] + t * bid_ticks, bid_ticks)
-        for t, el in sorted(self.elections.items()):
-            if el is None or el.elected_at is not None:
+            self.target_pos[t] = pos
+            self.elections[t] = Election(self.vote, f"worker/{t}", self._bidder(pos), entry["at"], bid_ticks)
+        closed = False
+        for _, el in sorted(self.elections.items()):
+            if el is not None and el.elected_at is None:
+                el.step(ctx)
+                closed = closed or el.elected_at is not None
+        if not closed or any(el is not None and el.elected_at is None for el in self.elections.values()):
+            return
+        for t, el in sorted(self.elections.items()):  # the round is over: settle it the same way everywhere
+            if el is None or t in self.settled or el.winner is None:
                 continue
-            el.step(ctx)
-            if el.elected_at is not None and el.winner == ctx.id and self.role == FREE:
-                self.role, self.chain, self.parent, self.child, self.depth = WORKER, t, self.root, None, 1
-                self.up, self.dn = [ctx.id, self.root], [ctx.id]
-                self.won_at = ctx.tick
-                self.slots, self.choice = {}, None
+            if el.winner not in self.settled.values():
+                self.settled[t] = el.winner
+                if el.winner == ctx.id and self.role == FREE:
+                    self.role, self.chain, self.parent, self.child, self.depth = WORKER, t, self.root, None, 1
+                    self.up, self.dn = [ctx.id, self.root], [ctx.id]
+                    self.won_at = ctx.tick
+                    self.slots, self.choice = {}, None
+            else:  # this robot already took a lower target: elect again
+                self.rounds[t] = self.rounds.get(t, 0) + 1
+                self.elections[t] = Election(self.vote, f"worker/{t}/{self.rounds[t]}",
+                                             self._bidder(self.target_pos[t]), ctx.tick, bid_ticks)
+
+    def _bidder(self, pos: list):
+        def bid(c: Context) -> float | None:
+            if c.id == self.root or self.role != FREE or c.id in self.settled.values():
+                return None
+            return float(math.dist(self._pos(c), pos[:2]))
+
+        return bid
 
     def _make_plan(self, ctx: Context) -> None:
         """R2: reachability and A* on the known map, then the tuple <pi, PE, pi_g> into the stigmergy."""
