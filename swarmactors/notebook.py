@@ -28,7 +28,7 @@ async def arun(scenario, *, out: str | Path | None = None, processes: int | None
 
     Args:
         scenario: a TOML path, a dict as parsed from TOML, or a ``swarmactors.Scenario``.
-        out: output directory (default ``out/<run.name>``).
+        out: output directory (default ``out/<run.name>/<UTC time>-s<seed>``, with ``out/<run.name>/latest``).
         processes: robot host processes (0: robots in this process).
         overrides: ``"section.key=value"`` strings, as on the command line.
         **settings: overrides written ``section__key=value``.

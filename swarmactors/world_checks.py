@@ -13,4 +13,4 @@ def no_collisions(result: Result) -> list[Outcome]:
     first = min((e["start"] for e in col["episodes"]), default=None)
     detail = (f"{col['robot_robot']} robot-robot and {col['robot_obstacle']} robot-obstacle collision episodes"
               + (f"; first: {col['episodes'][0]['collision']} from tick {first}" if col["episodes"] else ""))
-    return [Outcome("world.no_collisions", total == 0, total, 0, detail, first)]
+    return [Outcome("world.no_collisions", total == 0, total, 0, detail, first, op="=")]

@@ -532,3 +532,20 @@ def test_resumed_sweep_counts_the_failures_already_in_the_csv(project, monkeypat
     plan = sw.prepare(project / "s.toml", [], ["radio.loss=0"], 3, project / "sw")
     again = sw.run_sweep(plan, workers=1)
     assert (again.skipped, again.ran, again.failed) == (2, 1, 3)
+
+
+def test_flooding_reach_is_refused_under_realtime_naming_the_check_to_use(tmp_path, monkeypatch, capsys):
+    """flooding.reach holds only in lockstep (exact arrival ticks).
+
+    A realtime scenario asking for it is refused at load, naming flooding.component instead (issue 25).
+    """
+    from swarmactors.cli import main
+
+    (tmp_path / "rt.toml").write_text(
+        '[run]\nticks = 3\nclock = "realtime"\ndt = 0.05\n[[robots]]\ncount = 3\nplacement = "line"\n'
+        'behaviors = [{ use = "flooding", origin = 0, at = 1, expiry = 1.0 }]\n[[checks]]\nuse = "flooding.reach"\n')
+    monkeypatch.chdir(tmp_path)
+    capsys.readouterr()
+    assert main(["run", "rt.toml"]) == 2
+    err = capsys.readouterr().err
+    assert "flooding.reach" in err and "flooding.component" in err and "Traceback" not in err

@@ -59,7 +59,7 @@ def reach(result: Result) -> list[Outcome]:
     bad = missing or extra or wrong_hop or wrong_tick
     first = min([arrival[r] for r in missing + wrong_hop + wrong_tick] + [got[r]["tick"] for r in extra], default=None)
     return [
-        Outcome("flooding.reach", not bad, value=len(got), bound=len(arrival),
+        Outcome("flooding.reach", not bad, value=len(got), op="=", bound=len(arrival),
                 detail=(f"missing {missing[:10]} extra {extra[:10]} wrong hop {wrong_hop[:10]} "
                         f"wrong tick {wrong_tick[:10]}") if bad else "receivers = oracle, hop = BFS distance",
                 first_tick=first),
@@ -96,7 +96,7 @@ def delivered(result: Result) -> Outcome:
     ok = got == expected
     first = min([arrivals.get(r, p["at"]) for r in expected - got] + [receivers[r]["tick"] for r in got - expected],
                 default=None)
-    return Outcome("flooding.delivered", ok, value=len(got), bound=len(expected),
+    return Outcome("flooding.delivered", ok, value=len(got), op="=", bound=len(expected),
                    detail="" if ok else f"missing {sorted(expected - got)[:10]} extra {sorted(got - expected)[:10]}",
                    first_tick=first)
 
@@ -112,7 +112,7 @@ def component(result: Result) -> Outcome:
     extra = sorted(set(got) - set(dist))
     short = sorted(r for r in got if r in dist and got[r]["hop"] < dist[r])
     ok = not (missing or extra or short)
-    return Outcome("flooding.component", ok, value=len(got), bound=len(dist),
+    return Outcome("flooding.component", ok, value=len(got), op="=", bound=len(dist),
                    detail="" if ok else f"missing {missing[:10]} extra {extra[:10]} hop < BFS {short[:10]}")
 
 
@@ -124,11 +124,11 @@ def forwarding(result: Result) -> list[Outcome]:
     per_src = Counter(src for src, _ in sent)
     if p["hops"] is None:
         wrong = sorted(r for r in got if per_src.get(r, 0) != 1)
-        outcome_count = Outcome("flooding.forward_once", not wrong, value=len(got) - len(wrong), bound=len(got),
+        outcome_count = Outcome("flooding.forward_once", not wrong, value=len(got) - len(wrong), op="=", bound=len(got),
                                 detail="" if not wrong else f"robots forwarding != 1 time: {wrong[:10]}")
     else:
         wrong = sorted(r for r in got if (got[r]["hop"] < p["hops"]) != (per_src.get(r, 0) >= 1))
-        outcome_count = Outcome("flooding.forward_once", not wrong, value=len(got) - len(wrong), bound=len(got),
+        outcome_count = Outcome("flooding.forward_once", not wrong, value=len(got) - len(wrong), op="=", bound=len(got),
                                 detail="" if not wrong else f"robots forwarding against the hop limit: {wrong[:10]}")
     first_from = {r: e["from"] for r, e in got.items()}
     senders_first_seq = defaultdict(lambda: None)
@@ -139,9 +139,14 @@ def forwarding(result: Result) -> list[Outcome]:
                    if seq == senders_first_seq[src] and first_from.get(src) is not None and dst == first_from[src]})
     return [
         outcome_count,
-        Outcome("flooding.not_to_sender", not back, value=len(back), bound=0,
+        Outcome("flooding.not_to_sender", not back, value=len(back), op="=", bound=0,
                 detail="" if not back else f"robots that sent the flood back to their sender: {back[:10]}"),
     ]
 
 
 # ---------------------------------------------------------------- conformance suite
+
+
+# Exact arrival ticks hold only under the lockstep clock; a realtime run asks for flooding.component (issue 25).
+reach.clocks = ("lockstep",)
+reach.instead = {"realtime": "flooding.component"}
