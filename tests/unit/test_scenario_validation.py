@@ -101,7 +101,8 @@ VALID = {
     ("group", "body_radius"): lambda v: v >= 0, ("group", "climb_rate"): lambda v: v > 0,
     ("group", "obstacle_rays"): lambda v: v >= 0,
 }
-ONE_OF = {("run", "clock"): ["lockstep", "realtime"], ("run", "trace_compression"): ["none", "zstd"], ("radio", "model"): ["bernoulli", "distance"],
+ONE_OF = {("run", "clock"): ["lockstep", "realtime"], ("run", "trace_compression"): ["none", "zstd"],
+          ("radio", "model"): ["bernoulli", "distance"],
           ("group", "placement"): ["uniform", "grid", "line", "ring"], ("group", "kind"): ["ground", "flying"]}
 
 
