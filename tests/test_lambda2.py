@@ -62,13 +62,13 @@ def test_under_loss_0_1_the_estimate_does_not_settle_but_nothing_breaks(run, met
 
     The paper's 'sensitivity to noise', measured in docs/protocols/lambda2.md; every robot keeps iterating.
     """
-    result = run(lambda2_scenario(random_geometric(10, 1), 400, method=method, loss=0.1,
+    result = run(lambda2_scenario(random_geometric(10, 1), 250, method=method, loss=0.1,
                                   checks=[{"use": "lambda2.robust"}]))
     assert result["world"]["dropped"]["loss"] > 0
     assert result.check("lambda2.robust")["passed"]
     l2, at = settled(result)
     assert at is None
-    assert all(len(r["estimates"]) == 400 - 12 - 1 for r in result.reports("lambda2").values())
+    assert all(len(r["estimates"]) == 250 - 12 - 1 for r in result.reports("lambda2").values())
 
 
 def test_disconnected_graph_is_reported_and_judged_per_component(run):
@@ -124,12 +124,6 @@ def test_bad_parameters_are_refused_with_the_key():
     assert Lambda2.validate({"method": "wave", "dmax": 4}) is None
 
 
-def test_realtime_pi1_ring_within_five_percent(run):
-    result = run(lambda2_scenario(ring(8), 120, clock="realtime",
-                                  checks=[{"use": "lambda2.accurate", "tol": 5.0}]))
-    assert result.check("lambda2.accurate")["passed"], result.checks
-
-
 class WavePrinted(Lambda2):
     """The wave update as printed in the paper (no degree term): a mutant the oracle must catch."""
 
@@ -148,5 +142,5 @@ def test_the_printed_wave_update_fails_the_oracle(tmp_path):
 
 
 @pytest.mark.conformance_family("lambda2")
-def test_builtin_lambda2(conformance):
+def test_builtin_lambda2(conformance):  # the quick suite, realtime case included
     conformance("lambda2")
