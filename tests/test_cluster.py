@@ -158,6 +158,11 @@ def test_a_behaviour_module_missing_on_the_workers_names_module_and_worker(clust
     workers = sorted(client.scheduler_info()["workers"])
     assert "'only_here_beh'" in err and any(w in err for w in workers), err
     assert not (tmp_path / "s" / "trials.csv").exists()
+    client.upload_file(str(tmp_path / "only_here_beh.py"))  # the other way: Dask ships the module to the workers
+    assert main(["sweep", str(scenario), "--set", 'robots.0.behaviors.0.use="only_here_beh:Mine"',
+                 "--cluster", address, "--out", str(tmp_path / "s"), "--quiet"]) == 0
+    (row,) = _rows(tmp_path / "s" / "trials.csv")
+    assert row["passed"] == "true" and not row["error"]
 
 
 def test_an_unreachable_scheduler_exits_3_naming_it(tmp_path, capsys, monkeypatch):
@@ -203,3 +208,41 @@ def test_a_sweep_file_is_the_sweep_of_its_options(tmp_path):
     assert (a.identity["overrides"], a.grid, a.trials, a.out) == (b.identity["overrides"], b.grid, b.trials, b.out)
     assert a.all_trials() == b.all_trials() and a.identity == b.identity
     assert plan(spec, [], ["radio.range=1,2"], 1, None).keys == ["robots.0.count", "radio.range"]
+
+
+@pytest.mark.docker
+@pytest.mark.slow
+def test_compose_cluster_profile_runs_a_sweep_submitted_from_the_host(scenario, tmp_path):
+    """docker/compose.yaml --profile cluster: a scheduler and 2 worker containers; the same CSV as the local pool."""
+    import socket
+    import uuid
+
+    from needs import require_docker
+
+    compose = require_docker()
+    repo = Path(__file__).resolve().parents[1]
+    built = subprocess.run([str(repo / "docker" / "build-image.sh")], env={**os.environ, "PYTHON": sys.executable},
+                           capture_output=True, text=True, timeout=1200)  # reuses the image of tests/test_docker.py
+    assert built.returncode == 0, built.stderr + built.stdout
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    env = {**os.environ, "DASK_PORT": str(port)}
+    base = [*compose, "-p", f"sc{uuid.uuid4().hex[:8]}", "-f", str(repo / "docker" / "compose.yaml"),
+            "--profile", "cluster"]
+    grid = ["--grid", "run.processes=0,2", "--grid", "radio.loss=0,0.3", "--trials", "1"]
+    try:
+        up = subprocess.run([*base, "up", "-d", "--scale", "worker=2", "scheduler", "worker"], env=env,
+                            capture_output=True, text=True, timeout=300)
+        assert up.returncode == 0, up.stderr
+        from distributed import Client
+
+        with Client(f"tcp://127.0.0.1:{port}", timeout=60) as client:
+            client.wait_for_workers(2, timeout=120)
+        assert main(["sweep", str(scenario), *grid, "--cluster", f"tcp://127.0.0.1:{port}",
+                     "--out", str(tmp_path / "compose"), "--quiet"]) == 0
+    finally:
+        subprocess.run([*base, "down", "--remove-orphans", "-t", "2"], env=env, capture_output=True, timeout=120)
+    assert main(["sweep", str(scenario), *grid, "--workers", "2", "--out", str(tmp_path / "local"), "--quiet"]) == 0
+    assert len(_rows(tmp_path / "compose" / "trials.csv")) == 4
+    assert (tmp_path / "compose" / "trials.csv").read_bytes() == (tmp_path / "local" / "trials.csv").read_bytes()
