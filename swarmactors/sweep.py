@@ -23,7 +23,13 @@ Resuming: a sweep started again with the same scenario, overrides and grid
 keys skips the trials already in ``trials.csv`` (more values or more trials
 just add rows). A trial cut short by Ctrl-C leaves no row. Trials run in
 processes started with the ``spawn`` method (Zenoh's runtime does not survive
-``fork``), ``--workers`` at a time.
+``fork``), ``--workers`` at a time; with ``--cluster tcp://HOST:8786`` they run
+as tasks on a Dask cluster instead, each in a fresh child process on its worker
+(``swarmactors.cluster``), and the CSV holds the same bytes.
+
+A sweep file (``read_spec``) is a TOML file with one ``[sweep]`` table naming
+the scenario and its ``set``, ``grid``, ``trials`` and ``out``:
+``swarmactors sweep experiment.toml`` runs it.
 """
 
 from __future__ import annotations
