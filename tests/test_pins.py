@@ -63,8 +63,8 @@ CASE_PINS = {
     "stigmergy/rgg-20-s1": "7c94528d4b213934d8c10eda0f209eb7",
     "stigmergy/two-components": "70cfb08999bd23fc94d4d7f95eec164c",
     "stigmergy/rgg-20-s2-loss-0.2-anti-entropy": "3ea523cc308013f80b91cb73892e1206",
-    "relays/open-10": "24e486b69acd3a58fac972276fec2190",  # issue 16
-    "relays/open-12-kill-3": "d95b5f2d767a73290da9d2393727fa38",  # issue 16
+    "relays/open-10": "3ad96bcbc94996857b7bf989485b83ec",  # issue 16
+    "relays/open-12-kill-3": "9c75738b282e5fe05803465e62e93de5",  # issue 16
 }
 
 

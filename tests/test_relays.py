@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from protocols.relays.behavior import Relays
-from protocols.relays.suite import C_SHAPE, default_checks, relays_scenario
+from protocols.relays.suite import C_SHAPE, default_checks, relays_scenario, wall_scenario
 
 pytestmark = pytest.mark.slow  # every test runs scenarios over Zenoh
 
@@ -41,6 +41,21 @@ def test_c_shaped_obstacle_chain_goes_around_without_touching_it(run):
     assert all(c["passed"] for c in result.checks), result.checks
     path = [r["path"] for r in result.reports("relays").values() if r["role"] == "worker"][0]
     assert max(abs(p[1]) for p in path) > 1.5  # the path leaves the straight line to go around the C
+
+
+def test_a_wall_only_flying_robots_cross_a_flying_worker_takes_over_and_reaches_the_target(run):
+    result = run(wall_scenario(ticks=500))
+    assert all(c["passed"] for c in result.checks), result.checks
+    reps = result.reports("relays")
+    handed = [r for r, rep in reps.items() if rep["plan_status"] == "handed to a flying robot"]
+    assert len(handed) == 1 and reps[handed[0]]["kind"] == "ground"  # the first worker planned, then handed over
+    chain = chain_of(result)
+    assert reps[chain[0]]["kind"] == "flying" and reps[chain[0]]["reached_at"] is not None
+    path = reps[chain[0]]["path"]
+    assert path[1][2] == 0.7  # a 3-D path at the flying altitude, over the wall
+    final = {row[0]: row[1:] for row in result.trace[-1]["pos"]}
+    assert all(final[r][0] < 4.0 for r in chain if reps[r]["kind"] == "ground")  # ground robots stay before it
+    assert any(final[r][0] > 4.6 for r in chain if reps[r]["kind"] == "flying")
 
 
 @pytest.mark.parametrize("kill,n,loss", [([6], 10, 0.0), ([6], 10, 0.1), ([3, 6, 2], 12, 0.0), ([3, 6, 2], 12, 0.1)])

@@ -73,6 +73,8 @@ def valid_plan(v) -> str | None:
                 return f"{key} has a point that is not [x, y] or [x, y, z] of finite numbers"
     if not is_int(v.get("n")) or v["n"] < 1:
         return "n is not a positive integer"
+    if "g" in v and not is_num(v["g"]):
+        return "g is not a number"
     return None
 
 
@@ -87,7 +89,8 @@ class Relays(Behavior):
                  db: float = 1.8, vmax: float = 0.5, rcol: float = 0.25, plan_time: float = 2.0,
                  bid_time: float = 10.0, recruit_time: float = 1.0, forget_time: float = 3.0,
                  link_fail: float = 5.0, k: int = 8, wp: bool = False, resolution: float = 0.25,
-                 budget: int = 20000, clearance: float = 0.4, area: list | None = None, lookahead: float = 0.5):
+                 budget: int = 20000, clearance: float = 0.4, area: list | None = None, lookahead: float = 0.5,
+                 kind: str = "ground", altitude: float = 0.7):
         self.targets = [[float(c) for c in t] for t in targets]
         self.root, self.at = root, at
         self.ds, self.dc, self.db, self.vmax, self.rcol = ds, dc, db, vmax, rcol
@@ -95,6 +98,9 @@ class Relays(Behavior):
                       "fail": link_fail}
         self.k, self.wp, self.res, self.budget, self.clearance = k, wp, resolution, budget, clearance
         self.area, self.lookahead = area, lookahead
+        self.kind, self.altitude = kind, altitude  # kind repeats the group's: the context does not tell it
+        self.fly: dict[int, Election] = {}
+        self.cnt = 0  # robots from me to the worker (me included), from the child's REL_CHAIN
         self.node = Stigmergy()
         self.role, self.chain, self.parent, self.child, self.depth = FREE, None, None, None, None
         self.up: list[int] = []
@@ -154,6 +160,8 @@ class Relays(Behavior):
             return f"area = {a!r} must be [[x0, y0], [x1, y1]] with x0 < x1 and y0 < y1"
         if not isinstance(params.get("wp", False), bool):
             return "wp must be true or false"
+        if params.get("kind", "ground") not in ("ground", "flying"):
+            return f"kind = {params.get('kind')!r} must be ground or flying (the robot group's kind)"
         return None
 
     # ------------------------------------------------------------------ helpers
@@ -221,6 +229,7 @@ class Relays(Behavior):
             self.parent, self.depth = src, 2  # Prop. 1: a recruit now sits between the root and me
             self.up = [ctx.id] + up[: self.k]
         if src == self.child:
+            self.cnt = int(b["n"]) + 1 if is_int(b.get("n")) else self.cnt
             self.acked = self.acked or b.get("p") == ctx.id
             self.dn = [ctx.id] + dn[: self.k]
             self.done = bool(b.get("ok"))
@@ -232,9 +241,10 @@ class Relays(Behavior):
     def _on_task(self, ctx: Context, src: int, b: dict) -> None:
         """CBAA: a recruiter opened a slot; a free robot adds it to its task list."""
         key, close = str(b["key"]), int(b["close"])
-        if self.role == FREE and key not in self.slots and close > ctx.tick:
+        if self.role == FREE and key not in self.slots and close > ctx.tick \
+                and (not b.get("fly") or self.kind == "flying"):  # a flying slot takes flying robots only
             self.slots[key] = {"pos": [float(v) for v in b["pos"][:2]], "close": close, "y": -math.inf,
-                               "z": None, "owner": src, "chain": b.get("c")}
+                               "z": None, "owner": src, "chain": b.get("c"), "fly": bool(b.get("fly"))}
 
     def _on_bid(self, ctx: Context, src: int, b: dict) -> None:
         """CBAA consensus: keep the larger (bid, -id) per slot; an outbid robot bids again next tick."""
@@ -330,6 +340,7 @@ class Relays(Behavior):
                 continue
             self.target_pos[t] = pos
             self.elections[t] = Election(self.vote, f"worker/{t}", self._bidder(pos), entry["at"], bid_ticks)
+        self._elect_flying(ctx, bid_ticks)
         closed = False
         for _, el in sorted(self.elections.items()):
             if el is not None and el.elected_at is None:
@@ -351,6 +362,33 @@ class Relays(Behavior):
                 self.rounds[t] = self.rounds.get(t, 0) + 1
                 self.elections[t] = Election(self.vote, f"worker/{t}/{self.rounds[t]}",
                                              self._bidder(self.target_pos[t]), ctx.tick, bid_ticks)
+
+    def _elect_flying(self, ctx: Context, bid_ticks: int) -> None:
+        """Fig. 4: a plan that leaves the ground, made by a ground worker, opens a flying-only election."""
+        for t in sorted(self.settled):
+            plan = self.rel.peek(f"plan/{t}")
+            if t not in self.fly and isinstance(plan, dict) and is_int(plan.get("fly_at")):
+                pos = self.target_pos[t]
+
+                def bid(c: Context, pos=pos) -> float | None:
+                    if c.id == self.root or self.role != FREE or self.kind != "flying":
+                        return None
+                    return float(math.dist(self._pos(c), pos[:2]))
+
+                self.fly[t] = Election(self.vote, f"worker/{t}/fly", bid, plan["fly_at"], bid_ticks)
+                if self.role == WORKER and self.chain == t:  # the ground worker steps down
+                    self.role, self.chain, self.parent, self.child, self.depth = FREE, None, None, None, None
+                    self.plan = self.path = self.s = self.plan_seen = None
+                    self.up, self.dn = [], []
+        for t, el in sorted(self.fly.items()):
+            if el.elected_at is None:
+                el.step(ctx)
+                if el.elected_at is not None and el.winner == ctx.id and self.role == FREE:
+                    self.role, self.chain, self.parent, self.child, self.depth = WORKER, t, self.root, None, 1
+                    self.up, self.dn = [ctx.id, self.root], [ctx.id]
+                    self.won_at, self.plan_status = ctx.tick, "ok"
+                    self.slots, self.choice = {}, None
+                    self._load_plan(ctx)
 
     def _bidder(self, pos: list):
         def bid(c: Context) -> float | None:
@@ -388,15 +426,25 @@ class Relays(Behavior):
         else:
             grid = planner.Grid(area, self.res, inside, self.clearance)
             status, pts = planner.plan(grid, list(start), list(target[:2]), self.budget)
+            air = None
+            if status == "unreachable" and m is not None and m.dims == 3:  # in R^3, over the obstacles (Sec. IV)
+                h = self.altitude
+                grid = planner.Grid(area, self.res, lambda x, y: m.inside([x, y, h], ground=False), self.clearance)
+                status, pts = planner.plan(grid, list(start), list(target[:2]), self.budget)
+                air = h
             why = None if status == "ok" else {"outside": "target outside the map", "unreachable": "unreachable",
                                                "budget": "planner budget exhausted"}[status]
         self.plan_status = why or "ok"
         if why is not None:
             value = {"pe": False, "pi": [], "pig": [], "n": 0, "why": why}
         else:
-            pi = [[round(p[0], 4), round(p[1], 4), 0.0] for p in pts]
-            value = {"pe": True, "pi": pi, "pig": [p[:2] for p in pi],
+            g = planner.ground_reach(pts, inside, self.clearance) if air is not None else planner.length(pts)
+            pi = [[round(p[0], 4), round(p[1], 4), 0.0 if air is None else air] for p in pts]
+            value = {"pe": True, "pi": pi, "pig": [p[:2] for p in pi], "g": round(g, 4),
                      "n": robots_needed(planner.length(pts), self.ds), "why": None}
+            if air is not None and self.kind == "ground":  # Fig. 4: a flying robot takes over
+                value["fly_at"] = ctx.tick + 1
+                self.plan_status = "handed to a flying robot"
         self.planned_at = ctx.tick
         self.rel.put(f"plan/{self.chain}", value)
         self._load_plan(ctx)
@@ -486,7 +534,20 @@ class Relays(Behavior):
         close = ctx.tick + self._ticks(ctx, "recruit")
         self.pending[chain] = {"key": key, "close": close, "y": -math.inf, "z": None, "child": child}
         pos = self.root_pos if self.root_pos is not None else self._pos(ctx)
-        ctx.broadcast(TASK, {"key": key, "pos": [float(v) for v in pos], "close": close, "c": chain})
+        ctx.broadcast(TASK, {"key": key, "pos": [float(v) for v in pos], "close": close, "c": chain,
+                             "fly": self._needs_flying(chain, child)})
+
+    def _needs_flying(self, chain: int, base: int) -> bool:
+        """A recruit must fly while the chain holds fewer robots than the airborne part of pi needs."""
+        plan = self.rel.peek(f"plan/{chain}")
+        if valid_plan(plan) is not None or not plan.get("pe") or "g" not in plan:
+            return False
+        total = planner.length([p[:2] for p in plan["pig"]])
+        if plan["g"] >= total - 1e-6:
+            return False
+        h = self.heard.get(base)
+        have = h[1].get("n") if h is not None and is_int(h[1].get("n")) else 0
+        return have < math.ceil((total - plan["g"]) / self.ds) + 1
 
     def _run_slot(self, ctx: Context, chain: int) -> None:
         """Close a slot: call the winner; forget the slot once it joined, or when the call goes unanswered."""
@@ -515,6 +576,8 @@ class Relays(Behavior):
             best = None
             for key, s in sorted(self.slots.items()):
                 c = 1.0 / (1.0 + math.dist(self._pos(ctx), s["pos"]))
+                if self.kind == "flying" and not s["fly"]:
+                    c *= 0.1  # a flying robot takes a ground slot only when no ground robot bids
                 if (c, -ctx.id) > (s["y"], -(s["z"] if s["z"] is not None else 10**9)) and (
                         best is None or c > best[0]):
                     best = (c, key)
@@ -565,7 +628,10 @@ class Relays(Behavior):
                 self.done = True
                 u = np.zeros(2)
             else:
-                uf = motion.u_path(p, cum, self.s, x, True, self.vmax, ctx.dt, self.lookahead)
+                ahead = self.lookahead
+                if self.kind == "ground" and self.plan.get("g", math.inf) < cum[-1] - 1e-6:
+                    ahead = min(ahead, self.plan["g"] - self.s)  # a ground robot stops where pi leaves the ground
+                uf = motion.u_path(p, cum, self.s, x, True, self.vmax, ctx.dt, ahead) if ahead > 0 else np.zeros(2)
                 ub = motion.u_path(p, cum, self.s, x, False, self.vmax, ctx.dt, self.lookahead)
                 tc = self.sensed[self.child] - x if self.child in self.sensed else None
                 if tc is None and not self.acked:  # a recruit heading for a child it does not sense yet
@@ -590,9 +656,13 @@ class Relays(Behavior):
         r = self.rcol / 2 + 0.03
         ring = [np.array([math.cos(a), math.sin(a)]) * r for a in np.linspace(0, 2 * math.pi, 8, endpoint=False)]
 
+        z = float(ctx.position[2]) if len(ctx.position) == 3 else 0.0
+        ground = self.kind == "ground"
+
         def clear(v):
             end = x + v * ctx.dt
-            return not any(m.inside([float(p[0]), float(p[1]), 0.0]) for p in [end] + [end + q for q in ring])
+            return not any(m.inside([float(p[0]), float(p[1]), z], ground=ground)
+                           for p in [end] + [end + q for q in ring])
 
         if clear(u):
             return u
@@ -606,7 +676,8 @@ class Relays(Behavior):
         if self.role == ROOT:
             self.up, self.dn = [ctx.id], [ctx.id]
         body = {"r": self.role, "c": self.chain, "p": self.parent, "ch": self.child, "d": self.depth,
-                "up": self.up[: self.k + 1], "dn": self.dn[: self.k + 1], "ok": self.done}
+                "up": self.up[: self.k + 1], "dn": self.dn[: self.k + 1], "ok": self.done,
+                "n": 1 if self.child is None else self.cnt}
         ctx.broadcast(CHAIN, body)
 
     # ------------------------------------------------------------------ report
@@ -616,7 +687,7 @@ class Relays(Behavior):
             "won_at": self.won_at, "planned_at": self.planned_at, "plan_status": self.plan_status,
             "reached_at": self.reached_at,
             "path": self.plan["pi"] if self.plan and self.plan.get("pe") and self.role == WORKER else None,
-            "n": self.plan.get("n") if self.plan else None,
+            "n": self.plan.get("n") if self.plan else None, "kind": self.kind,
             "refused": dict(self.refused), "failed": self.failed, "splices": self.splices, "joined": self.joined,
             "stigmergy": self.node.counters(),
         }

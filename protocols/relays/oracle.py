@@ -142,8 +142,11 @@ def reached(result: Result, tol: float | None = None, slack: float = 1.0) -> lis
                     and c not in first_reach and math.dist(pos[rid], targets[c][:2]) <= tol:
                 first_reach[c] = t
     for c, target in enumerate(targets):
-        rep = next((r for r in reports.values() if r.get("chain") == c and r.get("plan_status")), None)
-        if rep is not None and rep["plan_status"] != "ok":
+        rep = next((r for r in reports.values() if r.get("chain") == c and r.get("role") == "worker"), None)
+        if rep is None:  # no worker now: the one that planned says why (a hand-over to a flying robot is no reason)
+            rep = next((r for r in reports.values() if r.get("chain") == c and r.get("plan_status")
+                        and not str(r["plan_status"]).startswith("handed")), None)
+        if rep is not None and rep.get("plan_status") not in ("ok", None):
             out.append(Outcome("relays.reached", True, None, None,
                                f"target {c} {target}: reported {rep['plan_status']!r}, no chain built"))
             continue

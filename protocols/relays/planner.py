@@ -159,3 +159,22 @@ def plan(grid: Grid, start: list[float], goal: list[float], budget: int) -> tupl
 def length(path: list[list[float]]) -> float:
     """The length of a polyline."""
     return sum(math.dist(a, b) for a, b in zip(path, path[1:], strict=False))
+
+
+def ground_reach(path: list[list[float]], blocked_at, clearance: float, step: float = 0.05) -> float:
+    """Return the arc length a ground robot can follow along ``path``.
+
+    That is, up to where the path comes within ``clearance`` of a ground obstacle (the end of pi_g's ground
+    part), sampled every ``step``.
+    """
+    ring = [(clearance * math.cos(a), clearance * math.sin(a)) for a in (k * math.pi / 4 for k in range(8))]
+    s = 0.0
+    for a, b in zip(path, path[1:], strict=False):
+        seg = math.dist(a, b)
+        for i in range(max(1, int(math.ceil(seg / step)))):
+            t = i * step / seg if seg else 0.0
+            x, y = a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])
+            if blocked_at(x, y) or any(blocked_at(x + dx, y + dy) for dx, dy in ring):
+                return max(0.0, s + t * seg - clearance)
+        s += seg
+    return s

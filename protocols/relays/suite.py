@@ -57,6 +57,25 @@ def default_checks(heal: bool = False) -> list[dict]:
     return out + ([{"use": "relays.healed"}] if heal else [])
 
 
+def wall_scenario(ground: int = 7, flying: int = 6, *, ticks: int = 650, seed: int = 1, **kw) -> dict:
+    """Build a 3-D arena cut from side to side by a wall 0.5 m high, with the target at (8, 0) beyond it.
+
+    Ground robots cannot pass the wall; flying robots (at 0.7 m) fly over it. The root and ``ground - 1``
+    ground robots stand nearer the target than the ``flying`` flying robots (behind the root), so the first
+    worker elected is a ground robot and hands over to a flying one (Fig. 4).
+    """
+    pts = cluster(ground) + [[-0.6 - x, y] for x, y in cluster(flying + 1)[1:]]
+    area = [[-3.0, -5.0], [11.0, 5.0]]
+    beh = {"use": "relays", "targets": [[8.0, 0.0]], "area": area, **kw}
+    common = {"speed": PAPER["vmax"], "body_radius": 0.125, "knows_map": True}
+    groups = [{"positions": [p + [0.0] for p in pts[:ground]], **common, "behaviors": [beh]},
+              {"positions": [p + [0.7] for p in pts[ground:]], "kind": "flying", "altitude": [0.7, 0.7], **common,
+               "behaviors": [{**beh, "kind": "flying"}]}]
+    return relays_scenario(ground + flying, ticks=ticks, seed=seed, dims=3, groups=groups,
+                           bounds=[[-3.0, -5.0, 0.0], [11.0, 5.0, 2.0]],
+                           obstacles=[{"box": [[4.0, -5.0], [4.6, 5.0]], "z": [0.0, 0.5]}])
+
+
 C_SHAPE = [{"c_shape": {"center": [4.5, 0.0], "size": 3.0, "thickness": 0.4, "opening": "-x"}}]
 
 
@@ -83,6 +102,7 @@ def suite(mode: str) -> list[Case]:
                                                              kills=[(300, [6])]), default_checks(heal=True)),
             _case("open-10-wp", relays_scenario(10, [[8.0, 0.0]], ticks=260, wp=True)),
             _case("open-12-two-targets", relays_scenario(12, [[5.0, 3.0], [5.0, -3.0]], ticks=600)),
+            _case("wall-ground-and-flying-13", wall_scenario(ticks=500)),
         ]
     return cases
 

@@ -117,3 +117,10 @@ def test_a_malformed_plan_is_refused_with_its_reason(value, why):
 def test_bad_parameters_are_refused(params, fragment):
     assert fragment in Relays.validate(params)
     assert Relays.validate({"targets": [[8.0, 0.0]]}) is None
+
+
+def test_ground_reach_ends_where_the_path_meets_a_ground_obstacle():
+    wall = _box(4.0, -5.0, 4.6, 5.0)
+    assert planner.ground_reach([[0.0, 0.0], [8.0, 0.0]], wall, 0.4) == pytest.approx(3.6 - 0.4, abs=0.06)
+    assert planner.ground_reach([[0.0, 0.0], [3.0, 0.0]], wall, 0.4) == pytest.approx(3.0)
+    assert Relays.validate({"targets": [[1, 0]], "kind": "boat"}).startswith("kind")
