@@ -8,6 +8,7 @@ import os
 import signal
 import subprocess
 import sys
+import textwrap
 import time
 from pathlib import Path
 
@@ -246,3 +247,33 @@ def test_compose_cluster_profile_runs_a_sweep_submitted_from_the_host(scenario, 
     assert main(["sweep", str(scenario), *grid, "--workers", "2", "--out", str(tmp_path / "local"), "--quiet"]) == 0
     assert len(_rows(tmp_path / "compose" / "trials.csv")) == 4
     assert (tmp_path / "compose" / "trials.csv").read_bytes() == (tmp_path / "local" / "trials.csv").read_bytes()
+
+
+@pytest.mark.slow
+def test_a_failing_or_crashing_task_is_recorded_once_and_not_retried(cluster, tmp_path):
+    from swarmactors.cluster import Job, run_jobs
+
+    address, client = cluster
+    log = tmp_path / "ran.txt"
+    module = tmp_path / "failing_tasks.py"
+    module.write_text(textwrap.dedent("""
+        import os
+
+        def fail(log, *, out):
+            with open(log, "a") as f:
+                f.write("fail\\n")
+            raise ValueError("always")
+
+        def crash(log, *, out):
+            with open(log, "a") as f:
+                f.write("crash\\n")
+            os._exit(7)
+    """))
+    client.upload_file(str(module))
+    replies = []
+    jobs = [Job("f", "failing_tasks:fail", (str(log),)), Job("c", "failing_tasks:crash", (str(log),))]
+    assert run_jobs(client, jobs, lambda job, reply: replies.append((job.key, reply))) is False
+    got = dict(replies)
+    assert len(replies) == 2 and got["f"].error == "ValueError: always"
+    assert "exited with code 7" in got["c"].error and got["c"].worker in got["c"].error
+    assert sorted(log.read_text().split()) == ["crash", "fail"]  # each ran once: no retry
