@@ -102,7 +102,7 @@ def test_a_worker_killed_mid_trial_is_rescheduled_and_each_row_appears_once(clus
     out = tmp_path / "killed"
     slow = scenario.parent / "cl-slow.toml"
     slow.write_text(SCENARIO.replace("ticks = 12", "ticks = 400"))
-    cmd = [sys.executable, "-m", "swarmactors", "sweep", str(slow), "--grid", "radio.loss=0,0.2", "--trials", "2",
+    cmd = [sys.executable, "-m", "swarmactors", "sweep", str(slow), "--grid", "radio.loss=0,0.2", "--trials", "1",
            "--cluster", address, "--out", str(out), "--json"]
     sweep = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     pids = client.run(os.getpid)
@@ -117,10 +117,9 @@ def test_a_worker_killed_mid_trial_is_rescheduled_and_each_row_appears_once(clus
     os.kill(victim, signal.SIGKILL)
     out_text, err = sweep.communicate(timeout=240)
     assert sweep.returncode == 0, err
-    assert json.loads(out_text)["ran"] == 4
+    assert json.loads(out_text)["ran"] == 2
     rows = _rows(out / "trials.csv")
-    assert sorted((r["radio.loss"], r["trial"]) for r in rows) == [("0", "0"), ("0", "1"), ("0.2", "0"),
-                                                                    ("0.2", "1")]
+    assert sorted((r["radio.loss"], r["trial"]) for r in rows) == [("0", "0"), ("0.2", "0")]
     assert {r["passed"] for r in rows} == {"true"} and not any(r["error"] for r in rows)
     client.wait_for_workers(2, timeout=60)  # the nanny restarted the killed worker, for the tests after this one
 
