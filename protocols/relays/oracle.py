@@ -21,7 +21,7 @@ def _timeline(result: Result):
     for rec in result.trace:
         for rid, fields in rec.get("status", {}).items():
             status.setdefault(int(rid), {}).update(fields)
-        pos = {row[0]: tuple(row[1:3]) for row in rec.get("pos", [])}
+        pos = {row[0]: tuple(row[1:]) for row in rec.get("pos", [])}  # 3-D in a 3-D world
         yield rec["t"], pos, status
 
 
@@ -122,7 +122,7 @@ def links_within_db(result: Result) -> list[Outcome]:
 
 
 def reached(result: Result, tol: float | None = None, slack: float = 1.0) -> list[Outcome]:
-    """Each reachable target's worker comes within r_col of it in time.
+    """Each reachable target's worker comes within r_col of it (horizontally) in time.
 
     The bound is the issue's T = planning + n (bidding + d_s / v_max) + d_path / v_max with bidding =
     ``bid_time``, plus the elections (``at`` and one bid_time per target up to this one) and 60 s per kill,
@@ -139,7 +139,7 @@ def reached(result: Result, tol: float | None = None, slack: float = 1.0) -> lis
         for rid, s in status.items():
             c = s.get("chain")
             if s.get("role") == "worker" and c is not None and c < len(targets) and rid in pos \
-                    and c not in first_reach and math.dist(pos[rid], targets[c][:2]) <= tol:
+                    and c not in first_reach and math.dist(pos[rid][:2], targets[c][:2]) <= tol:
                 first_reach[c] = t
     for c, target in enumerate(targets):
         rep = next((r for r in reports.values() if r.get("chain") == c and r.get("role") == "worker"), None)
@@ -183,7 +183,7 @@ def healed(result: Result) -> list[Outcome]:
             for rid, s in status.items():
                 c = s.get("chain")
                 if s.get("role") == "worker" and c is not None and c < len(targets) and rid in pos \
-                        and math.dist(pos[rid], targets[c][:2]) <= tol:
+                        and math.dist(pos[rid][:2], targets[c][:2]) <= tol:
                     for k in times:
                         back.setdefault(k, t)
         if not pending or t <= pending[0]:
