@@ -267,6 +267,11 @@ class AddedRobot(msgspec.Struct, forbid_unknown_fields=True, omit_defaults=True)
     heading: float | None = None
     kind: Literal["ground", "flying"] | None = None
     behaviors: list[BehaviorSpec] | None = None
+    # the world's space (issue 14): a scenario's ``add`` event carries its group's values (scenario.expand_group)
+    altitude: Annotated[list[float], msgspec.Meta(min_length=2, max_length=2)] | None = None
+    climb_rate: Positive | None = None
+    knows_map: bool | None = None
+    obstacle_rays: Annotated[int, msgspec.Meta(ge=0)] | None = None
     # situated sensing and clocks (world/situated.py); a [lo, hi] range is drawn per robot
     sensing_frame: Literal["global", "local"] | None = None
     range_noise: NonNegative | None = None
