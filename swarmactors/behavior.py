@@ -8,7 +8,9 @@ world, or another robot.
 
 Time: ``ctx.now`` is in the clock's unit, ticks in lockstep and seconds since
 the run started in realtime; ``ctx.tick`` is the world's tick in both. Both are
-read-only: only the robot's host advances them.
+read-only: only the robot's host advances them. A robot with a clock offset or drift (its group's
+``clock_offset``, ``clock_drift``) reads its own clock in ``ctx.now`` and its timers
+(swarmactors/robot_clock.py); ``ctx.tick`` stays the world's.
 
 What a robot knows of the world: its own pose, the robots it senses each tick,
 the frames it receives, the objects it is told about (an object's ``known_by``),
@@ -32,20 +34,32 @@ from transport.messages import FrameOut
 
 
 class Frame(msgspec.Struct, frozen=True):
-    """A frame as a receiving robot sees it (its body is this robot's own copy)."""
+    """A frame as a receiving robot sees it (its body is this robot's own copy).
+
+    ``rab``: under local sensing or ``radio.rab = true``, the (range, bearing) at which this robot heard the
+    frame (send-tick positions, its own body frame, its own noise); None otherwise.
+    """
 
     src: int
     kind: str
     body: Any
     seq: int
     sent: float  # send tick (lockstep) or send time in seconds (realtime)
+    rab: tuple[float, float] | None = None
 
 
 class Sensed(msgspec.Struct, frozen=True):
-    """A robot within sensing range: its id and (possibly noisy) position."""
+    """A robot within sensing range: its id and (possibly noisy) position.
+
+    Global sensing: ``pos`` is the world position (of the closest point of its body with
+    ``sensing_to = "surface"``). Local sensing: ``range`` and ``bearing`` (radians, 0 ahead, positive to the
+    left) in this robot's body frame, and ``pos`` the same vector in Cartesian form (x ahead, y left).
+    """
 
     id: int
     pos: np.ndarray
+    range: float | None = None
+    bearing: float | None = None
 
 
 class Behavior:
@@ -59,6 +73,7 @@ class Behavior:
 
     name: ClassVar[str] = ""
     kinds: ClassVar[tuple[str, ...]] = ()
+    frames: ClassVar[tuple[str, ...]] = ("global",)  # the sensing frames it supports ("global", "local")
     plot_field: ClassVar[str | None] = None  # status field that colours robots in the run plot
 
     def on_start(self, ctx: Context) -> Any:
@@ -102,7 +117,7 @@ class Context:
         self._rays: tuple[float, ...] | None = None
         self._now: float = 0
         self._tick = 0
-        self.pose = np.zeros(3)  # x, y, heading (x, y, z, heading in 3-D)
+        self.pose = np.zeros(3)  # x, y, heading (x, y, z, heading in 3-D); local sensing: odometry from its start
         self.objects: dict[str, list[float]] = {}  # the objects this robot knows (its own dict)
         self._outbox: list[FrameOut] = []
         self._velocity: list[float] | None = None
@@ -113,6 +128,8 @@ class Context:
         self._seq = 0
         self.logs: list[str] = []
         self._encode: Callable[[Any], bytes] | None = None
+        self._own_clock = None  # swarmactors.robot_clock.RobotClock when the robot's clock is skewed
+        self._sensing_frame = "global"
 
     @property
     def now(self) -> float:
@@ -158,10 +175,15 @@ class Context:
         """
         return self._rays
 
+    @property
+    def sensing_frame(self) -> str:
+        """``"global"`` or ``"local"`` (its group's ``sensing_frame``): what ``pose`` and ``sensed`` mean."""
+        return self._sensing_frame
+
     def _set_time(self, tick: int, now: float) -> None:
-        """The host advances the robot's time (the only writer)."""
+        """The host advances the robot's time (the only writer), on the robot's own clock if skewed."""
         self._tick = tick
-        self._now = now
+        self._now = now if self._own_clock is None else self._own_clock.local(now)
 
     @property
     def position(self) -> np.ndarray:
@@ -189,7 +211,7 @@ class Context:
         Lockstep: at the first tick boundary at or after the due time. Realtime: at the due time itself.
         """
         if self._on_timer is not None:
-            self._on_timer(float(delay), fn)
+            self._on_timer(float(delay) if self._own_clock is None else self._own_clock.true_delay(delay), fn)
             return
         self._timer_seq += 1
         self._timers.append((self.now + delay, self._timer_seq, fn))

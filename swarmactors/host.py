@@ -28,6 +28,7 @@ import numpy as np
 from swarmactors.behavior import Behavior, Context, Frame, Sensed
 from swarmactors.knownmap import KnownMap
 from swarmactors.plugins import RefusedBehavior, resolve_behavior
+from swarmactors.robot_clock import robot_clock
 from swarmactors.tasks import TaskSet
 from transport import Keys, Link, MalformedMessage, pack, seal, unseal
 from transport.auth import run_secret_from_env, verifies
@@ -61,6 +62,9 @@ class Robot:
         self.ctx.pose = np.array(descr.pose, dtype=float)
         if descr.knows_map and run.map is not None:
             self.ctx._map = KnownMap.from_spec(run.map)  # its own copy
+        self.ctx._own_clock = robot_clock(descr.clock_offset, descr.clock_drift, run.clock, run.dt)
+        self.ctx._sensing_frame = descr.sensing_frame
+        self.local = descr.sensing_frame == "local"
         self.behaviors: list[Behavior] = []
         self.report_names: list[str] = []  # the name each behaviour's report goes under
         self.started = False
@@ -73,6 +77,9 @@ class Robot:
             for spec in descr.behaviors:
                 # only allowed Behavior subclasses are imported or called (plugins.resolve_behavior)
                 cls = resolve_behavior(spec.get("use"), allow)
+                if descr.sensing_frame not in cls.frames:
+                    raise ValueError(f"behaviour {spec.get('use')!r} does not support sensing_frame = "
+                                     f"{descr.sensing_frame!r} (it supports {', '.join(cls.frames)})")
                 params = {k: v for k, v in spec.items() if k not in ("use", "as")}
                 b = cls(**params)
                 self.behaviors.append(b)
@@ -203,12 +210,16 @@ async def _finish(robot: Robot, first, rest: Iterator[tuple]) -> None:
 
 
 class SensedView(Sequence):
-    """What a robot sensed this tick, as ``Sensed`` items built only when read."""
+    """What a robot sensed this tick, as ``Sensed`` items built only when read.
 
-    __slots__ = ("_ids", "_flat", "_dims")
+    Under local sensing each neighbour's numbers are (range, bearing[, elevation]), turned into a body-frame
+    vector for ``pos``.
+    """
 
-    def __init__(self, ids: list[int], flat: list[float], dims: int):
-        self._ids, self._flat, self._dims = ids, flat, dims
+    __slots__ = ("_ids", "_flat", "_dims", "_local")
+
+    def __init__(self, ids: list[int], flat: list[float], dims: int, local: bool = False):
+        self._ids, self._flat, self._dims, self._local = ids, flat, dims, local
 
     def __len__(self) -> int:
         return len(self._ids)
@@ -217,24 +228,36 @@ class SensedView(Sequence):
         if isinstance(i, slice):
             return [self[k] for k in range(*i.indices(len(self)))]
         d = self._dims
-        return Sensed(self._ids[i], np.array(self._flat[i * d : (i + 1) * d]))
+        row = self._flat[i * d : (i + 1) * d]
+        if self._local:
+            return Sensed(self._ids[i], _cartesian(np.array([row]), d)[0], row[0], row[1])
+        return Sensed(self._ids[i], np.array(row))
 
     @property
     def ids(self) -> list[int]:
         return self._ids
 
     def positions(self) -> np.ndarray:
-        """All sensed positions as an (n, dims) array."""
-        return np.array(self._flat, dtype=float).reshape(len(self._ids), self._dims)
+        """All sensed positions (body-frame vectors under local sensing) as an (n, dims) array."""
+        rows = np.array(self._flat, dtype=float).reshape(len(self._ids), self._dims)
+        return _cartesian(rows, self._dims) if self._local else rows
+
+
+def _cartesian(rows: np.ndarray, dims: int) -> np.ndarray:
+    """(range, bearing[, elevation]) rows as body-frame vectors (x ahead, y left[, z up])."""
+    r, b = rows[:, 0], rows[:, 1]
+    e = rows[:, 2] if dims > 2 else np.zeros(len(rows))
+    out = [r * np.cos(e) * np.cos(b), r * np.cos(e) * np.sin(b)] + ([r * np.sin(e)] if dims > 2 else [])
+    return np.column_stack(out)
 
 
 _body_decoder = msgspec.msgpack.Decoder()
 
 
-def decode_body(f: FrameIn) -> Frame | None:
-    """A received frame with its body decoded; None for an undecodable body."""
+def decode_body(f: FrameIn, rab: list[float] | None = None) -> Frame | None:
+    """A received frame with its body decoded (and its range and bearing); None for an undecodable body."""
     try:
-        return Frame(f.src, f.kind, _body_decoder.decode(f.body), f.seq, f.sent)
+        return Frame(f.src, f.kind, _body_decoder.decode(f.body), f.seq, f.sent, None if rab is None else tuple(rab))
     except msgspec.DecodeError:
         return None
 
@@ -391,11 +414,14 @@ class RobotHost:
                 continue
             self._set_inputs(robot, row.pose, now, objects, row.objects, row.rays)
             inbox = [frames.frame(k) for k in row.inbox]
+            if row.rab is not None:  # each receiver's own range and bearing (frame.rab)
+                inbox = [f if f is None else msgspec.structs.replace(f, rab=(row.rab[2 * j], row.rab[2 * j + 1]))
+                         for j, f in enumerate(inbox)]
             if None in inbox:
                 robot.bad_bodies += inbox.count(None)
                 inbox = [f for f in inbox if f is not None]
             ids, flat = row.sensed
-            rest = run_calls(robot, robot.calls(inbox, SensedView(ids, flat, dims)))
+            rest = run_calls(robot, robot.calls(inbox, SensedView(ids, flat, dims, robot.local)))
             if rest is not None:
                 pending[asyncio.ensure_future(rest)] = robot
             stepped.append(robot)
@@ -471,7 +497,7 @@ class RobotHost:
                 robot = self.robots.get(d.dst)
                 if robot is None or not robot.alive:
                     continue
-                frame = decode_body(FrameIn(d.src, d.kind, d.seq, d.body, d.sent))
+                frame = decode_body(FrameIn(d.src, d.kind, d.seq, d.body, d.sent), d.rab)
                 if frame is None:
                     robot.bad_bodies += 1
                     continue
@@ -496,7 +522,7 @@ class RobotHost:
                     continue
                 self._set_inputs(robot, row.pose, self._rt_now(), msg.objects, row.objects, row.rays)
                 ids, flat = row.sensed
-                self._rt_run(robot, robot.calls([], SensedView(ids, flat, len(row.pose) - 1)))
+                self._rt_run(robot, robot.calls([], SensedView(ids, flat, len(row.pose) - 1, robot.local)))
                 touched.append(robot)
         self._rt_flush(touched)
 

@@ -53,9 +53,30 @@ def _one_of(*options):
     return lambda v: None if v in options else f"must be one of {', '.join(map(repr, options))}"
 
 
+def _value_or_range(limit: float | None = None, unit: str = ""):
+    """A number, or ``[lo, hi]`` with lo <= hi (drawn per robot from the run's seed); each within +-limit."""
+
+    def check(v):
+        vals = v if isinstance(v, list) else [v]
+        if isinstance(v, list) and (len(v) != 2 or not all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                                         for x in v)):
+            return "must be a number or a range [lo, hi] of two numbers"
+        if not all(math.isfinite(x) for x in vals):
+            return "must be finite"
+        if isinstance(v, list) and v[0] > v[1]:
+            return "is a range [lo, hi] with lo > hi"
+        if limit is not None and any(abs(x) > limit for x in vals):
+            return f"must be within +-{limit:g}{unit}"
+        return None
+
+    return check
+
+
 _NUM = (int, float)
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")  # a run name is a directory name: no separators, no parent
 _NAME_RULE = "must be 1 to 64 letters, digits, '.', '_' or '-', starting with a letter or digit (it names a directory)"
+_NUM_OR_RANGE = (int, float, list)
+MAX_DRIFT_PPM = 1e5  # |clock_drift| (swarmactors/robot_clock.py)
 
 SCHEMA: dict[str, dict[str, tuple]] = {
     "run": {
@@ -82,6 +103,13 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "delta": (_NUM, 0.1, _positive),
         "bandwidth": (int, 0, _non_negative),
         "occlusion": (bool, False, None),  # obstacles block links (world/space.py)
+        # bursty loss (world/bursts.py): "gilbert" replaces the Bernoulli ``loss``; ``model`` stays the distance model
+        "loss_model": (str, "bernoulli", _one_of("bernoulli", "gilbert")),
+        "p_gb": (_NUM, None, _probability),
+        "p_bg": (_NUM, None, _probability),
+        "loss_good": (_NUM, None, _probability),
+        "loss_bad": (_NUM, None, _probability),
+        "rab": (bool, False, None),  # every delivered frame carries its range and bearing (frame.rab)
     },
     "world": {
         "dims": (int, 2, _one_of(2, 3)),
@@ -115,7 +143,17 @@ GROUP: dict[str, tuple] = {
     "knows_map": (bool, False, None),  # ctx.map: the static map as prior knowledge
     "obstacle_rays": (int, 0, _non_negative),  # ctx.rays: this many range rays to obstacles
     "behaviors": (list, [], None),
+    # situated sensing and clocks (world/situated.py, swarmactors/robot_clock.py)
+    "sensing_frame": (str, "global", _one_of("global", "local")),
+    "range_noise": (_NUM, 0.0, _non_negative),
+    "bearing_noise": (_NUM, 0.0, _non_negative),
+    "heading_offset": (_NUM_OR_RANGE, None, _value_or_range()),
+    "sensing_to": (str, "center", _one_of("center", "surface")),  # "surface": to the closest point of a body
+    "clock_offset": (_NUM_OR_RANGE, 0.0, _value_or_range()),
+    "clock_drift": (_NUM_OR_RANGE, 0.0, _value_or_range(MAX_DRIFT_PPM, " ppm")),
 }
+SITUATED_DEFAULTS = {k: GROUP[k][1] for k in ("sensing_frame", "range_noise", "bearing_noise", "heading_offset",
+                                              "sensing_to", "clock_offset", "clock_drift")}
 EVENT_ACTIONS = tuple(ACTIONS)  # one list of world actions: transport/messages.py
 MAX_FILE_BYTES = 16 * 1024 * 1024  # a scenario file larger than this is refused before it is parsed
 MAX_ROBOTS_LIMIT = 1_000_000  # the largest world.max_robots a scenario may ask for
@@ -169,6 +207,7 @@ def resolve_scenario(raw: dict, source: str = "<scenario>", overrides: list[str]
     radio = out["radio"]
     if radio["latency_min_s"] is not None and radio["latency_min_s"] > radio["latency_s"]:
         raise ScenarioError(source, "radio.latency_min_s", "must not exceed radio.latency_s")
+    _check_bursts(radio, source)
     _check_world(out["world"], source)
     _check_space(out["world"], source)
     groups = raw.get("robots")
@@ -183,6 +222,24 @@ def resolve_scenario(raw: dict, source: str = "<scenario>", overrides: list[str]
     out["checks"] = [_check(c, f"checks[{i}]", source) for i, c in enumerate(raw.get("checks", []))]
     out["source"] = source
     return out
+
+
+def _check_bursts(radio: dict, source: str) -> None:
+    """Gilbert-Elliott keys: p_gb and p_bg with ``loss_model = "gilbert"`` (which replaces ``loss``), only then."""
+    keys = ("p_gb", "p_bg", "loss_good", "loss_bad")
+    if radio["loss_model"] != "gilbert":
+        for key in keys:
+            if radio[key] is not None:
+                raise ScenarioError(source, f"radio.{key}",
+                                    'is a Gilbert-Elliott parameter: set radio.loss_model = "gilbert"')
+        return
+    for key in ("p_gb", "p_bg"):
+        if radio[key] is None:
+            raise ScenarioError(source, f"radio.{key}", 'give it (a probability per tick) with loss_model = "gilbert"')
+    if radio["loss"]:
+        raise ScenarioError(source, "radio.loss", 'must be 0 with loss_model = "gilbert" (its bursts replace it)')
+    radio["loss_good"] = 0.0 if radio["loss_good"] is None else radio["loss_good"]
+    radio["loss_bad"] = 1.0 if radio["loss_bad"] is None else radio["loss_bad"]
 
 
 def apply_override(raw: dict, item: str, source: str = "--set") -> None:
@@ -405,6 +462,8 @@ def _group(g: Any, where: str, sc: dict, source: str, rng: np.random.Generator) 
     dims = sc["world"]["dims"]
     grp["range"] = grp["range"] if grp["range"] is not None else sc["radio"]["range"]
     grp["sensing"] = grp["sensing"] if grp["sensing"] is not None else grp["range"]
+    if grp["heading_offset"] is not None and grp["sensing_frame"] != "local":
+        raise ScenarioError(source, f"{where}.heading_offset", 'applies only with sensing_frame = "local"')
     if (grp["count"] is None) == (grp["positions"] is None):
         raise ScenarioError(source, where, "give exactly one of count or positions")
     if grp["positions"] is not None:
@@ -614,6 +673,10 @@ def _behavior(b: Any, where: str, source: str, group: dict | None = None) -> dic
     except PluginError as exc:
         raise ScenarioError(source, f"{where}.use", str(exc)) from None
     params = {k: v for k, v in b.items() if k not in ("use", "as")}
+    frame = (group or {}).get("sensing_frame", "global")
+    if frame not in getattr(cls, "frames", ("global",)):
+        raise ScenarioError(source, where, f"behaviour {b['use']!r} does not support sensing_frame = {frame!r} "
+                                           f"(it supports {', '.join(getattr(cls, 'frames', ('global',)))})")
     problem = check_params(cls, params)
     if problem:
         raise ScenarioError(source, where, f"{b['use']}: {problem}")
@@ -641,6 +704,8 @@ def _event(e: Any, where: str, sc: dict, source: str, rng: np.random.Generator) 
     action = actions[0]
     value = e[action]
     key = f"{where}.{action}"
+    if action == "loss" and sc["radio"]["loss_model"] == "gilbert":
+        raise ScenarioError(source, key, 'radio.loss_model is "gilbert": its bursts replace the Bernoulli loss')
     if action == "add":
         value = expand_group(_group(value, key, sc, source, rng))
     else:  # the world's own rule for the action (transport/messages.py); robot ids are checked later
@@ -717,6 +782,7 @@ def expand_group(grp: dict) -> list[dict]:
     fields = ("range", "sensing", "speed", "turn_rate", "noise", "heading", "kind", "body_radius", "altitude",
               "climb_rate", "knows_map", "obstacle_rays", "behaviors")
     common = {k: grp[k] for k in fields if grp[k] is not None}
+    common |= {k: grp[k] for k, default in SITUATED_DEFAULTS.items() if grp.get(k, default) != default}
     return [{"pos": p, **common} for p in grp["positions"]]
 
 

@@ -68,6 +68,9 @@ class RobotDescr(_Message):
     sensing: float
     speed: float
     knows_map: bool = False  # the robot is given the run's static map (ctx.map)
+    sensing_frame: Literal["global", "local"] = "global"  # local: range and bearing in its own frame
+    clock_offset: float = 0.0  # the robot's clock offset (seconds) and drift (ppm): swarmactors/robot_clock.py
+    clock_drift: float = 0.0
 
 
 class RunInfo(_Message):
@@ -150,6 +153,7 @@ class RobotIn(_Row):
     inbox: list[int]
     objects: list[str] | None = None
     rays: list[float] | None = None  # obstacle range rays (world/space.py), when the robot's group has them
+    rab: list[float] | None = None  # (range, bearing) of each inbox frame, flattened (frame.rab)
 
 
 class Inputs(msgspec.Struct, tag="in", forbid_unknown_fields=True, omit_defaults=True):
@@ -178,6 +182,7 @@ class Delivery(_Row):
     seq: int
     body: bytes
     sent: float
+    rab: list[float] | None = None  # (range, bearing) at which the receiver heard it (frame.rab)
 
 
 class Deliveries(msgspec.Struct, tag="d", forbid_unknown_fields=True):
@@ -262,6 +267,20 @@ class AddedRobot(msgspec.Struct, forbid_unknown_fields=True, omit_defaults=True)
     heading: float | None = None
     kind: Literal["ground", "flying"] | None = None
     behaviors: list[BehaviorSpec] | None = None
+    # the world's space (issue 14): a scenario's ``add`` event carries its group's values (scenario.expand_group)
+    altitude: Annotated[list[float], msgspec.Meta(min_length=2, max_length=2)] | None = None
+    climb_rate: Positive | None = None
+    knows_map: bool | None = None
+    obstacle_rays: Annotated[int, msgspec.Meta(ge=0)] | None = None
+    # situated sensing and clocks (world/situated.py); a [lo, hi] range is drawn per robot
+    sensing_frame: Literal["global", "local"] | None = None
+    range_noise: NonNegative | None = None
+    bearing_noise: NonNegative | None = None
+    heading_offset: float | Annotated[list[float], msgspec.Meta(min_length=2, max_length=2)] | None = None
+    sensing_to: Literal["center", "surface"] | None = None
+    body_radius: NonNegative | None = None
+    clock_offset: float | Annotated[list[float], msgspec.Meta(min_length=2, max_length=2)] | None = None
+    clock_drift: float | Annotated[list[float], msgspec.Meta(min_length=2, max_length=2)] | None = None
 
 
 # Every fault/world action, from a scenario's [[events]] or the control queryable: name -> argument type.

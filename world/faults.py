@@ -56,6 +56,8 @@ class Faults:
 
     def problem(self, action: dict) -> str | None:
         """Why ``action`` cannot be applied to this world now, or None."""
+        if "loss" in action and self.medium.bursts is not None:
+            return "loss: the radio's loss_model is \"gilbert\" (its bursts replace the Bernoulli loss)"
         return action_problem(action, robots=len(self.robots), dims=self.robots.dims, objects=set(self.objects))
 
     def due(self, tick: int) -> list[tuple[dict, str]]:

@@ -17,6 +17,9 @@ at the send tick:
   ``bernoulli`` loses with probability ``loss``; ``distance`` is Swarm Relays
   Sec. III-A: the receiver decodes with e = 1 when d < delta, exp(-delta*d/Z)
   otherwise (Z the transmitter's range), then ``loss`` applies on top;
+  ``loss_model = "gilbert"`` (world/bursts.py) replaces ``loss`` by the
+  Gilbert-Elliott state of the (src, dst) pair, multiplied with the
+  distance model's probability where both are on;
 * latency - lockstep: exactly ``latency`` ticks; realtime: drawn uniformly in
   [latency_min_s, latency_s] seconds per (frame, receiver).
 
@@ -32,6 +35,7 @@ from itertools import repeat
 import numpy as np
 
 from world import rng
+from world.bursts import GilbertElliott
 
 
 @dataclass
@@ -47,6 +51,12 @@ class RadioConfig:
     delta: float = 0.1
     bandwidth: int = 0  # bytes per robot per tick; 0 = unlimited
     occlusion: bool = False  # obstacles block links (world/space.py)
+    loss_model: str = "bernoulli"  # or "gilbert" (world/bursts.py): bursts replace the Bernoulli ``loss``
+    p_gb: float | None = None
+    p_bg: float | None = None
+    loss_good: float = 0.0
+    loss_bad: float = 1.0
+    rab: bool = False  # frames carry the receiver's range and bearing (world/situated.py)
 
     @classmethod
     def from_dict(cls, data: dict) -> RadioConfig:
@@ -80,8 +90,12 @@ class Medium:
         self.group: dict[int, int] = {}  # robot -> partition group; absent = group 0
         self._budget: dict[int, int] = {}  # bytes sent this tick, per robot (bandwidth cap)
         self._budget_tick = -1
+        self.bursts = (GilbertElliott(seed, config.p_gb, config.p_bg, config.loss_good, config.loss_bad)
+                       if config.loss_model == "gilbert" else None)
 
     def set_loss(self, loss: float) -> None:
+        if self.bursts is not None:
+            raise ValueError("loss: the radio's loss_model is \"gilbert\" (its bursts replace the Bernoulli loss)")
         self.config.loss = loss
 
     def cut(self, a: int, b: int) -> None:
@@ -159,23 +173,28 @@ class Medium:
                 severed = np.array([self._severed(f.src, int(r)) for r in receivers])
                 drops.extend((f.src, f.seq, int(r), f.kind, "cut") for r in receivers[severed])
                 receivers = receivers[~severed]
-            p_ok = self._success_probability(f.src, receivers, positions, ranges)
+            p_ok = self._success_probability(tick, f.src, receivers, positions, ranges)
             if p_ok is not None:
-                u = rng.uniform(self.seed, rng.LOSS, tick, f.src, f.seq, receivers)
-                lost = u >= p_ok
+                if ((p_ok == 0.0) | (p_ok == 1.0)).all():  # certain outcomes need no draw (u is in [0, 1))
+                    lost = p_ok == 0.0
+                else:
+                    lost = rng.uniform(self.seed, rng.LOSS, tick, f.src, f.seq, receivers) >= p_ok
                 if lost.any():
                     drops.extend((f.src, f.seq, int(r), f.kind, "loss") for r in receivers[lost])
                     receivers = receivers[~lost]
             deliveries.extend(zip(receivers.tolist(), repeat(f.src), repeat(f.seq), repeat(f), repeat(tick)))
         return deliveries, drops
 
-    def _success_probability(self, src, receivers, positions, ranges):
+    def _success_probability(self, tick, src, receivers, positions, ranges):
         """Per-receiver decoding probability, or None when every frame gets through."""
         cfg = self.config
+        keep = (1.0 - cfg.loss) if self.bursts is None else self.bursts.success(tick, src, receivers)
         if cfg.model == "distance":
             d = np.linalg.norm(positions[receivers] - positions[src], axis=1)
             e = np.where(d < cfg.delta, 1.0, np.exp(-cfg.delta * d / ranges[src]))
-            return e * (1.0 - cfg.loss)
+            return e * keep
+        if self.bursts is not None:
+            return keep
         if cfg.loss > 0.0:
             return np.full(len(receivers), 1.0 - cfg.loss)
         return None

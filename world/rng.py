@@ -16,6 +16,9 @@ LATENCY = 2
 BURST = 3
 PLACEMENT = 4
 NOISE = 5
+SITUATED = 6  # per-robot draws: heading offset, clock offset and drift (world/situated.py)
+BEARING = 7  # range and bearing noise of situated sensing
+RAB = 8  # range and bearing noise of received frames
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _M1 = np.uint64(0xBF58476D1CE4E5B9)

@@ -63,6 +63,7 @@ from world.kinematics import MAX_COORD, bad_positions, integrate
 from world.radio import Medium, Outgoing, RadioConfig
 from world.registry import HostEntry, Robots
 from world.sensing import sense, within
+from world.situated import Situated
 from world.space import SpaceRules
 from world.uplink import COUNTED_CRASHES, INVALID_POSITION, accept
 
@@ -124,6 +125,8 @@ class World:
         self.known_map = ({"dims": self.dims, "obstacles": wspec.get("obstacles") or [], "map": wspec.get("map")}
                           if any(s.get("knows_map") for s in spec["robots"]) else None)
         self.unclaimed: list[int] = list(range(len(self.robots)))
+        self.situated = Situated(self.seed, self.radio.rab)  # local frames, bodies' surfaces, clocks, frame.rab
+        self.situated.sync(self.robots.spec)
         self.hosts: dict[str, HostEntry] = {}
         self.counters = Counters()
         self.record = TickRecord(self.counters, self._publish_event)
@@ -224,6 +227,11 @@ class World:
             for episode in self.space.collisions(self.tick, r.pos, r):
                 self.record.event(self.tick, episode)
         self._poses = np.round(np.hstack([r.pos, r.heading[:, None]]), POS_DIGITS).tolist()
+        self.situated.sync(r.spec)
+        if self.situated.active:  # situated sensing (world/situated.py): own frames, closest points
+            self._sensed = self.situated.sense(r.pos, r.heading, alive, r.sensing, r.noise, sensed_ids, self._sensed,
+                                               self.tick, POS_DIGITS)
+            self.situated.own_poses(self._poses, r.pos, r.heading, POS_DIGITS)
         self._known = self._known_objects()
 
     async def exchange(self) -> None:
@@ -288,14 +296,18 @@ class World:
             if not self.robots.alive[rid]:
                 continue
             refs = []
+            rab = [] if self.situated.rab and self.situated.wants_rab(rid) else None
             for f, sent_tick in (inbox.get(rid, ()) if inbox is not None else ()):
                 k = index.get(id(f))
                 if k is None:
                     k = index[id(f)] = len(table)
                     table.append(FrameIn(f.src, f.kind, f.seq, f.body, sent_tick))
                 refs.append(k)
+                if rab is not None:
+                    rab.extend(self.situated.take_rab(f.src, f.seq, rid))
             rows.append(RobotIn(rid, poses[rid], self._sensed.get(rid, _NOTHING), refs,
-                                None if known is None else known.get(rid, []), self._rays.get(rid)))
+                                None if known is None else known.get(rid, []), self._rays.get(rid),
+                                rab or None))
         msg = Inputs(self.tick, self.clock.now(), rows, table, self.objects)
         if not self.lockstep:
             msg.epoch = self.clock.epoch
@@ -375,9 +387,15 @@ class World:
 
     def _robot_descr(self, rid: int) -> RobotDescr:
         s = self.robots.spec[rid]
-        return RobotDescr(rid, self.robots.pose(rid, POS_DIGITS), s.get("behaviors", []), s.get("kind", "ground"),
+        self.situated.sync(self.robots.spec)
+        pose = self.robots.pose(rid, POS_DIGITS)
+        if self.situated.local[rid]:
+            pose = [round(v, POS_DIGITS) for v in self.situated.pose(rid, self.robots.pos[rid],
+                                                                     self.robots.heading[rid])]
+        return RobotDescr(rid, pose, s.get("behaviors", []), s.get("kind", "ground"),
                           float(self.robots.range[rid]), float(self.robots.sensing[rid]),
-                          float(self.robots.speed[rid]), bool(s.get("knows_map", False)))
+                          float(self.robots.speed[rid]), bool(s.get("knows_map", False)),
+                          **self.situated.descr(rid))
 
     def _placed_like(self, template: dict) -> dict:
         """A robot spec for a host joining mid-run: template parameters, random position in bounds."""
@@ -495,7 +513,7 @@ class World:
                 self.counters.refused[cause] += 1
             self.faults.crash(rid, self.tick, cause, error)
         for rid, v in got.velocities:
-            self.robots.vel[rid] = v
+            self.robots.vel[rid] = self.situated.velocity(rid, v)
         for rid, changes in got.statuses:
             self.robots.status[rid].update(changes)
             self.record.status(rid, changes)
@@ -516,6 +534,8 @@ class World:
             self.tick, frames, self._reach, self.robots.alive, self.robots.pos, self.robots.range, self._occluded
         )
         self.record.sent(frames)
+        if self.situated.rab:
+            self.situated.note_rab(self.tick, deliveries, self.robots.pos, self.robots.heading)
         if drops:
             self.record.dropped(drops)
         if self.lockstep:
@@ -564,7 +584,9 @@ class World:
         if host is None:
             return
         self.record.delivered(f.src, f.seq, dst, sent_tick)
-        self._rt_out[host].append(Delivery(dst, f.src, f.kind, f.seq, f.body, sent_at))
+        rab = list(self.situated.take_rab(f.src, f.seq, dst)) if self.situated.rab and self.situated.wants_rab(dst) \
+            else None
+        self._rt_out[host].append(Delivery(dst, f.src, f.kind, f.seq, f.body, sent_at, rab))
         if host not in self._rt_flush_scheduled:
             self._rt_flush_scheduled.add(host)
             asyncio.get_running_loop().call_soon(self._rt_flush, host)

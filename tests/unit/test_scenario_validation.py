@@ -71,6 +71,8 @@ RADIO = {
     "range": (NUMBER, 1.0), "latency": (INTEGER, 1), "latency_s": (NUMBER, 0.01), "latency_min_s": (NUMBER, None),
     "loss": (NUMBER, 0.0), "model": (STRING, "bernoulli"), "delta": (NUMBER, 0.1), "bandwidth": (INTEGER, 0),
     "occlusion": (BOOLEAN, False),
+    "loss_model": (STRING, "bernoulli"), "p_gb": (NUMBER, None), "p_bg": (NUMBER, None),
+    "loss_good": (NUMBER, None), "loss_bad": (NUMBER, None), "rab": (BOOLEAN, False),
 }
 WORLD = {"dims": (INTEGER, 2), "bounds": ("list", None), "objects": ("list", []), "max_robots": (INTEGER, 10_000),
          "obstacles": ("list", []), "map": ("table", None), "blocking": (BOOLEAN, False)}
@@ -80,6 +82,9 @@ GROUP = {
     "speed": (NUMBER, None), "turn_rate": (NUMBER, None), "noise": (NUMBER, 0.0), "heading": (NUMBER, 0.0),
     "kind": (STRING, "ground"), "behaviors": ("list", []), "body_radius": (NUMBER, 0.0), "altitude": ("list", None),
     "climb_rate": (NUMBER, None), "knows_map": (BOOLEAN, False), "obstacle_rays": (INTEGER, 0),
+    "sensing_frame": (STRING, "global"), "range_noise": (NUMBER, 0.0), "bearing_noise": (NUMBER, 0.0),
+    "heading_offset": ("number or range", None), "sensing_to": (STRING, "center"),
+    "clock_offset": ("number or range", 0.0), "clock_drift": ("number or range", 0.0),
 }
 SECTIONS = {"run": RUN, "radio": RADIO, "world": WORLD}
 EVENT_ACTIONS = ["kill", "kill_fraction", "add", "cut", "restore", "partition", "heal", "loss", "move", "stop"]
@@ -100,10 +105,16 @@ VALID = {
     ("group", "noise"): lambda v: v >= 0, ("group", "heading"): lambda v: True,
     ("group", "body_radius"): lambda v: v >= 0, ("group", "climb_rate"): lambda v: v > 0,
     ("group", "obstacle_rays"): lambda v: v >= 0,
+    ("radio", "p_gb"): lambda v: 0 <= v <= 1, ("radio", "p_bg"): lambda v: 0 <= v <= 1,
+    ("radio", "loss_good"): lambda v: 0 <= v <= 1, ("radio", "loss_bad"): lambda v: 0 <= v <= 1,
+    ("group", "range_noise"): lambda v: v >= 0, ("group", "bearing_noise"): lambda v: v >= 0,
 }
 ONE_OF = {("run", "clock"): ["lockstep", "realtime"], ("run", "trace_compression"): ["none", "zstd"],
           ("radio", "model"): ["bernoulli", "distance"],
-          ("group", "placement"): ["uniform", "grid", "line", "ring"], ("group", "kind"): ["ground", "flying"]}
+          ("group", "placement"): ["uniform", "grid", "line", "ring"], ("group", "kind"): ["ground", "flying"],
+          ("radio", "loss_model"): ["bernoulli", "gilbert"], ("group", "sensing_frame"): ["global", "local"],
+          ("group", "sensing_to"): ["center", "surface"]}
+GILBERT_KEYS = ("p_gb", "p_bg", "loss_good", "loss_bad")  # valid only with loss_model = "gilbert"
 
 
 def with_value(section: str, key: str, value) -> tuple[dict, str]:
@@ -111,6 +122,8 @@ def with_value(section: str, key: str, value) -> tuple[dict, str]:
     if section == "group":
         return minimal(robots=[{"count": 3, key: value}] if key != "count" else [{"count": value}]), f"robots[0].{key}"
     raw = minimal()
+    if section == "radio" and (key in GILBERT_KEYS or (key, value) == ("loss_model", "gilbert")):
+        raw["radio"] = {"loss_model": "gilbert", "p_gb": 0.1, "p_bg": 0.5}
     raw.setdefault(section, {})[key] = value
     if (section, key) == ("run", "duration"):
         del raw["run"]["ticks"]
@@ -156,7 +169,8 @@ def test_wrong_type_is_rejected_naming_the_key(section, key, kind):
 
 @pytest.mark.parametrize("section,key", [(s, k) for s, k, t in TYPED if t == NUMBER])
 def test_integer_accepted_where_a_number_is_expected(section, key):
-    value = 0 if (section, key) in (("radio", "loss"), ("radio", "latency_min_s")) else 2
+    zero = (("radio", "loss"), ("radio", "latency_min_s"), *(("radio", k) for k in GILBERT_KEYS))
+    value = 0 if (section, key) in zero else 2
     raw, _ = with_value(section, key, value)
     sc = resolve_scenario(raw, SRC)
     got = sc["robots"][0][key] if section == "group" else sc[section][key]
