@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import time
 from collections.abc import Callable
 from typing import Any, ClassVar
 
@@ -199,7 +200,9 @@ class Context:
 
     def _queue(self, dst: int | None, kind: str, body: Any, exclude: list[int]) -> None:
         self._seq += 1
-        self._outbox.append(FrameOut(dst, kind, self._seq, self._encode(body), exclude))
+        # realtime: the radio's latency runs from this call (the world dates the frame by it, within limits)
+        at = time.time() if self._clock == "realtime" else None
+        self._outbox.append(FrameOut(dst, kind, self._seq, self._encode(body), exclude, at))
 
     def move(self, velocity) -> None:
         """Command a velocity (length units per second), kept until changed."""

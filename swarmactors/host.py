@@ -28,12 +28,14 @@ import numpy as np
 from swarmactors.behavior import Behavior, Context, Frame, Sensed
 from swarmactors.knownmap import KnownMap
 from swarmactors.plugins import RefusedBehavior, resolve_behavior
+from swarmactors.precise_timer import PreciseTimer
 from swarmactors.robot_clock import robot_clock
 from swarmactors.tasks import TaskSet
 from transport import Keys, Link, MalformedMessage, pack, seal, unseal
 from transport.auth import run_secret_from_env, verifies
 from transport.messages import (
     Deliveries,
+    Delivery,
     Downlink,
     FrameIn,
     Inputs,
@@ -452,12 +454,16 @@ class RobotHost:
         # a hook's own errors crash its robot (run_calls); what reaches the set is the watchdog's timeout
         self._tasks = TaskSet(f"host {self.name}", on_error=_unless_timeout)
         self._loop = asyncio.get_running_loop()
+        self._timer = PreciseTimer(self._loop, self._deliver, self.name)
         for robot in self.robots.values():
             self._realtime_timers(robot)
         self.link.subscribe(self.keys.down(self.name), self._on_down)
-        await self.link.query(uplink, self._uplink(-1), timeout=30.0)
-        # The epoch arrives with every tick's inputs; the registration reply predates the start.
-        await self._stopped.wait()
+        try:
+            await self.link.query(uplink, self._uplink(-1), timeout=30.0)
+            # The epoch arrives with every tick's inputs; the registration reply predates the start.
+            await self._stopped.wait()
+        finally:
+            self._timer.close()
         await self._tasks.close()
         await self._send_reports(uplink)
 
@@ -491,23 +497,15 @@ class RobotHost:
             return
         touched: list[Robot] = []
         if isinstance(msg, Deliveries):
-            now = self._rt_now()
-            batches: dict[int, list[Frame]] = {}
+            now = time.time()
+            due_now = [d for d in msg.items if d.due is None or d.due <= now]
             for d in msg.items:
-                robot = self.robots.get(d.dst)
-                if robot is None or not robot.alive:
-                    continue
-                frame = decode_body(FrameIn(d.src, d.kind, d.seq, d.body, d.sent), d.rab)
-                if frame is None:
-                    robot.bad_bodies += 1
-                    continue
-                batches.setdefault(d.dst, []).append(frame)
-            for rid, frames in batches.items():
-                robot = self.robots[rid]
-                robot.ctx._set_time(self.tick, now)
-                self._rt_run(robot, robot.frame_calls(frames))
-                touched.append(robot)
-        elif isinstance(msg, Inputs):
+                if d.due is not None and d.due > now:
+                    self._timer.add(d.due, d)  # handed over at its due time, never earlier
+            if due_now:
+                self._deliver(due_now)
+            return
+        if isinstance(msg, Inputs):
             if msg.epoch is not None:
                 self._epoch = msg.epoch
             self.tick = msg.tick
@@ -524,6 +522,29 @@ class RobotHost:
                 ids, flat = row.sensed
                 self._rt_run(robot, robot.calls([], SensedView(ids, flat, len(row.pose) - 1, robot.local)))
                 touched.append(robot)
+        self._rt_flush(touched)
+
+    def _deliver(self, items: list[Delivery]) -> None:
+        """Realtime: hand frames whose due time has come to their robots (one batch per robot)."""
+        if self._stopped.is_set():
+            return
+        now = self._rt_now()
+        batches: dict[int, list[Frame]] = {}
+        for d in items:
+            robot = self.robots.get(d.dst)
+            if robot is None or not robot.alive:
+                continue
+            frame = decode_body(FrameIn(d.src, d.kind, d.seq, d.body, d.sent), d.rab)
+            if frame is None:
+                robot.bad_bodies += 1
+                continue
+            batches.setdefault(d.dst, []).append(frame)
+        touched = []
+        for rid, frames in batches.items():
+            robot = self.robots[rid]
+            robot.ctx._set_time(self.tick, now)
+            self._rt_run(robot, robot.frame_calls(frames))
+            touched.append(robot)
         self._rt_flush(touched)
 
     def _rt_run(self, robot: Robot, calls: Iterator[tuple]) -> None:

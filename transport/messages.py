@@ -104,6 +104,7 @@ class FrameOut(_Row):
     seq: Seq
     body: bytes
     exclude: list[RobotId]
+    at: float | None = None  # realtime: the sender's wall time (time.time()) when the robot radioed it
 
 
 class RobotOut(_Row):
@@ -174,7 +175,7 @@ class Inputs(msgspec.Struct, tag="in", forbid_unknown_fields=True, omit_defaults
 
 
 class Delivery(_Row):
-    """Realtime: one frame for one robot, delivered now."""
+    """Realtime: one frame for one robot, to be handed to it at ``due`` (at once when None or past)."""
 
     dst: int
     src: int
@@ -183,10 +184,11 @@ class Delivery(_Row):
     body: bytes
     sent: float
     rab: list[float] | None = None  # (range, bearing) at which the receiver heard it (frame.rab)
+    due: float | None = None  # wall time (time.time()) at which the receiver's host hands it to the robot
 
 
 class Deliveries(msgspec.Struct, tag="d", forbid_unknown_fields=True):
-    """Realtime: frames whose latency has just elapsed, for the host's robots."""
+    """Realtime: frames the radio decided to deliver, each with its due time, for the host's robots."""
 
     items: list[Delivery]
 

@@ -78,6 +78,7 @@ class Outgoing:
     seq: int
     body: bytes
     exclude: tuple[int, ...] = ()
+    at: float | None = None  # realtime: the sender's wall time when it radioed the frame (FrameOut.at)
 
 
 class Medium:

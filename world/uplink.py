@@ -72,5 +72,5 @@ def accept(host: str, rows: list[RobotOut], owned: set[int], alive: np.ndarray, 
                                          f"seq={f.seq!r} (not after {last_seq.get(rid, -1)})"))
                 continue
             last_seq[rid] = f.seq
-            out.frames.append(Outgoing(rid, f.dst, f.kind, f.seq, f.body, tuple(f.exclude)))
+            out.frames.append(Outgoing(rid, f.dst, f.kind, f.seq, f.body, tuple(f.exclude), f.at))
     return out

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import time
 from collections import defaultdict
 from collections.abc import Callable
 from operator import itemgetter
@@ -72,6 +73,7 @@ log = logging.getLogger(__name__)
 _NOTHING: tuple = ([], [])
 _BY_DST_SRC_SEQ = itemgetter(0, 1, 2)
 POS_DIGITS = 6  # positions in traces, state and hashes are rounded to 1e-6 length units
+MAX_BACKDATE_S = 0.05  # realtime: a frame's latency runs from at most this long before the world received it
 
 
 class Sink(Protocol):
@@ -148,9 +150,6 @@ class World:
         self._awaited_tick = -1
         self._ready = asyncio.Event()
         self._final_reports = asyncio.Event()
-        # realtime: deliveries waiting for their host's next flush
-        self._rt_out: dict[str, list[Delivery]] = defaultdict(list)
-        self._rt_flush_scheduled: set[str] = set()
         if isinstance(self.clock, RealtimeClock):
             self.clock.on_due = self._rt_deliver
         # this tick's reach and sensing
@@ -561,41 +560,48 @@ class World:
         return inbox
 
     def _schedule_realtime(self, deliveries: list[tuple[int, int, int, Outgoing, int]]) -> None:
-        """Realtime: each delivery is handed to the clock, due once its drawn latency has elapsed."""
+        """Realtime: each delivery goes to its host at once, due when its drawn latency has elapsed.
+
+        The latency runs from the sender's radio call (``Outgoing.at``, the sender host's wall clock), taken no
+        earlier than ``MAX_BACKDATE_S`` before the world received the frame and never after it (a host cannot buy
+        an earlier delivery by back-dating). The receiving host hands the frame to its robot at the due time
+        (swarmactors/precise_timer.py), never earlier; the world's own timer records the delivery in the trace
+        at the same time, or a drop as ``dead`` if the receiver died meanwhile.
+        """
         by_frame: dict[int, list[int]] = defaultdict(list)
         frames: dict[int, Outgoing] = {}
         for dst, _, _, f, _ in deliveries:
             by_frame[id(f)].append(dst)
             frames[id(f)] = f
         sent_at = self.clock.now()
+        received = time.time()
+        out: dict[str, list[Delivery]] = defaultdict(list)
         for key, dsts in by_frame.items():
             f = frames[key]
-            lat = self.medium.latencies_s(self.tick, f.src, f.seq, np.array(dsts))
-            self.clock.after(lat.tolist(), [(dst, f, sent_at, self.tick) for dst in dsts])
+            start = received if f.at is None else min(received, max(f.at, received - MAX_BACKDATE_S))
+            lat = self.medium.latencies_s(self.tick, f.src, f.seq, np.array(dsts)).tolist()
+            self.clock.after([start + x - received for x in lat], [(dst, f, self.tick) for dst in dsts])
+            for dst, x in zip(dsts, lat, strict=True):
+                host = self.robots.host[dst]
+                if host is None:
+                    continue
+                rab = (list(self.situated.take_rab(f.src, f.seq, dst))
+                       if self.situated.rab and self.situated.wants_rab(dst) else None)
+                out[host].append(Delivery(dst, f.src, f.kind, f.seq, f.body, sent_at, rab, start + x))
+        for host, batch in out.items():
+            entry = self.hosts.get(host)
+            if entry is not None and entry.alive:
+                self.link.publish(self.keys.down(host), self._down(host, Deliveries(batch)))
 
-    def _rt_deliver(self, item: tuple[int, Outgoing, float, int]) -> None:
-        dst, f, sent_at, sent_tick = item
+    def _rt_deliver(self, item: tuple[int, Outgoing, int]) -> None:
+        """Realtime bookkeeping at a delivery's due time: delivered, or dropped as ``dead``."""
+        dst, f, sent_tick = item
         if self.finished:
             return
         if not self.robots.alive[dst]:
             self.record.dead(f.src, f.seq, dst)
             return
-        host = self.robots.host[dst]
-        if host is None:
-            return
         self.record.delivered(f.src, f.seq, dst, sent_tick)
-        rab = list(self.situated.take_rab(f.src, f.seq, dst)) if self.situated.rab and self.situated.wants_rab(dst) \
-            else None
-        self._rt_out[host].append(Delivery(dst, f.src, f.kind, f.seq, f.body, sent_at, rab))
-        if host not in self._rt_flush_scheduled:
-            self._rt_flush_scheduled.add(host)
-            asyncio.get_running_loop().call_soon(self._rt_flush, host)
-
-    def _rt_flush(self, host: str) -> None:
-        self._rt_flush_scheduled.discard(host)
-        batch = self._rt_out.pop(host, [])
-        if batch and self.hosts.get(host) and self.hosts[host].alive:
-            self.link.publish(self.keys.down(host), self._down(host, Deliveries(batch)))
 
     # ------------------------------------------------------------ actions and failures
     def _apply(self, action: dict, source: str) -> None:
