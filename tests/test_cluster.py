@@ -237,8 +237,15 @@ def test_compose_cluster_profile_runs_a_sweep_submitted_from_the_host(scenario, 
         assert up.returncode == 0, up.stderr
         from distributed import Client
 
-        with Client(f"tcp://127.0.0.1:{port}", timeout=60) as client:
-            client.wait_for_workers(2, timeout=120)
+        deadline = time.monotonic() + 120
+        while True:  # the published port answers before the scheduler inside does
+            try:
+                with Client(f"tcp://127.0.0.1:{port}", timeout=10) as client:
+                    client.wait_for_workers(2, timeout=120)
+                break
+            except OSError:
+                assert time.monotonic() < deadline, "the compose scheduler never answered"
+                time.sleep(1)
         assert main(["sweep", str(scenario), *grid, "--cluster", f"tcp://127.0.0.1:{port}",
                      "--out", str(tmp_path / "compose"), "--quiet"]) == 0
     finally:
