@@ -85,6 +85,7 @@ class Sweep:
     base_seed: int
     name: str
     identity: dict = field(default_factory=dict)
+    post: str | None = None  # a sweep file's post-processing function, "module:function"
 
     @property
     def keys(self) -> list[str]:
@@ -198,13 +199,18 @@ def plan(source: str | Path, overrides: list[str], grid_items: list[str], trials
     spec = read_spec(source)
     if spec is None:
         return prepare(source, overrides, grid_items, 1 if trials is None else trials, out)
-    return prepare(spec["scenario"], [*spec["set"], *overrides], [*spec["grid"], *grid_items],
-                   spec["trials"] if trials is None else trials, out or spec["out"])
+    sw = prepare(spec["scenario"], [*spec["set"], *overrides], [*spec["grid"], *grid_items],
+                 spec["trials"] if trials is None else trials, out or spec["out"])
+    sw.post = spec["post"]
+    if sw.post:
+        _post_function(sw.post, source)  # a post function that cannot load stops the sweep before it starts
+    return sw
 
 
 SPEC_KEYS = {"scenario": "the scenario file, relative to this file", "set": "overrides, as --set",
              "grid": "a table of key = [values], as --grid", "trials": "runs per grid point",
-             "out": "output directory (relative to the current directory)"}
+             "out": "output directory (relative to the current directory)",
+             "post": '"module:function" called as function(trials_csv, out_dir) after the sweep (a figure)'}
 
 
 def read_spec(path: str | Path) -> dict | None:
@@ -248,8 +254,11 @@ def read_spec(path: str | Path) -> dict | None:
         raise bad("trials", "an integer >= 1")
     if "out" in spec and not isinstance(spec["out"], str):
         raise bad("out", "a directory name")
+    post = spec.get("post")
+    if post is not None and not (isinstance(post, str) and re.fullmatch(r"[\w.]+:\w+", post)):
+        raise bad("post", '"module:function"')
     return {"scenario": Path(path).parent / spec["scenario"], "set": sets, "grid": items, "trials": trials,
-            "out": Path(spec["out"]) if "out" in spec else None}
+            "out": Path(spec["out"]) if "out" in spec else None, "post": post}
 
 
 # ---------------------------------------------------------------- one trial
@@ -535,6 +544,8 @@ def _run_sweep(sw: Sweep, workers: int, keep: str, progress, client) -> Outcome:
     counts["running"] = 0
     table.finish()
     plots = [] if interrupted else summary_plots(sw, table)
+    if sw.post and not interrupted:
+        plots += post_process(sw)
     return Outcome(len(trials), skipped, done - skipped, counts["errors"], counts["failed"], interrupted,
                    table.path, plots)
 
@@ -623,6 +634,22 @@ def _on_cluster(sw: Sweep, pending: list[Trial], keep: str, client, take, runnin
         take(t, row)
 
     return cl.run_jobs(client, jobs, on_reply, running)
+
+
+def post_process(sw: Sweep) -> list[Path]:
+    """Call the sweep file's ``post`` function on trials.csv; the files it returns (a figure) join the plots."""
+    made = _post_function(sw.post)(sw.csv_path, sw.out)
+    return [Path(p) for p in (made or [])]
+
+
+def _post_function(ref: str, source: str | Path = "the sweep file") -> Callable:
+    import importlib
+
+    module, _, name = ref.partition(":")
+    try:
+        return getattr(importlib.import_module(module), name)
+    except (ImportError, AttributeError) as exc:
+        raise SweepError(f"{source}: key 'sweep.post' = {ref!r}: cannot load it ({exc})") from None
 
 
 # ---------------------------------------------------------------- summary plots

@@ -283,3 +283,25 @@ def test_a_failing_or_crashing_task_is_recorded_once_and_not_retried(cluster, tm
     assert len(replies) == 2 and got["f"].error == "ValueError: always"
     assert "exited with code 7" in got["c"].error and got["c"].worker in got["c"].error
     assert sorted(log.read_text().split()) == ["crash", "fail"]  # each ran once: no retry
+
+
+@pytest.mark.slow
+def test_a_sweep_file_runs_its_post_function_on_the_csv(tmp_path, monkeypatch):
+    (tmp_path / "cl.toml").write_text(SCENARIO)
+    (tmp_path / "exp_figure.py").write_text(textwrap.dedent("""
+        import csv
+
+        def draw(trials_csv, out):
+            rows = list(csv.DictReader(open(trials_csv)))
+            path = out / "figure.txt"
+            path.write_text(" ".join(sorted(r["radio.loss"] for r in rows)))
+            return [path]
+    """))
+    spec = tmp_path / "exp.toml"
+    spec.write_text('[sweep]\nscenario = "cl.toml"\ngrid = { "radio.loss" = [0, 0.2] }\nout = "o"\n'
+                    'post = "exp_figure:draw"\n')
+    monkeypatch.chdir(tmp_path)
+    assert main(["sweep", str(spec), "--workers", "1", "--quiet"]) == 0
+    assert (tmp_path / "o" / "figure.txt").read_text() == "0 0.2"
+    spec.write_text(spec.read_text().replace("exp_figure:draw", "exp_figure:nothing"))
+    assert main(["sweep", str(spec), "--quiet"]) == 2
