@@ -232,7 +232,14 @@ def extract(files: bytes, dest: Path) -> None:
         shutil.rmtree(dest)
     dest.mkdir(parents=True)
     with tarfile.open(fileobj=io.BytesIO(files)) as tar:
-        tar.extractall(dest, filter="data")
+        if hasattr(tarfile, "data_filter"):  # Python >= 3.11.4: refuse links and paths out of dest
+            tar.extractall(dest, filter="data")
+        else:
+            for member in tar.getmembers():
+                if not (member.isfile() or member.isdir()) or member.name.startswith(("/", "..")) \
+                        or "/../" in member.name:
+                    raise ClusterError(f"a task sent back an unsafe file {member.name!r}")
+            tar.extractall(dest)
 
 
 # ---------------------------------------------------------------- worker side
