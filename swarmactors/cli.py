@@ -27,7 +27,7 @@ from swarmactors.launcher import new_run_id, private_endpoints, run_dir, run_wor
 from swarmactors.plugins import BEHAVIORS, PluginError, resolve
 from swarmactors.progress import RunProgress, summary_table
 from swarmactors.scenario import ScenarioError
-from transport import Endpoints, Keys, Security, ensure_files
+from transport import Endpoints, Keys, Security, ensure_files, lease_settings
 from transport.auth import RUN_SECRET_ENV
 from transport.config import check_endpoint
 
@@ -135,6 +135,8 @@ def build_parser() -> argparse.ArgumentParser:
     replay.add_argument("--fps", type=float, default=10.0, help="animation: frames per second (default 10)")
     replay.add_argument("--field", help="animation: status field that colours robots (default: the protocol's)")
     replay.add_argument("--quiet", action="store_true", help="no progress display")
+    replay.add_argument("--no-verify", action="store_true",
+                        help="replay a trace whose hashes do not match (a warning instead of exit 2)")
     _server_args(replay, "--port", "--host")
 
     sweep = sub.add_parser("sweep", help="run a grid of parameters x trials over worker processes, to a CSV")
@@ -486,6 +488,7 @@ def _robots(args) -> int:
     if args.secure:
         _wait_for(args.secure / "host.credential", seconds=args.wait)
     extra = Security("host", args.secure).zenoh_settings(args.run_id) if args.secure else {}
+    extra = {**lease_settings(), **extra}  # the lease of the default watchdog_s (2·10 + 5 s)
     endpoints = Endpoints(mode=args.mode, connect=args.connect, extra=extra)
     if not args.secure and not os.environ.get(RUN_SECRET_ENV):
         print(f"warning: no --secure and no {RUN_SECRET_ENV}: the join reply and so this host's downlink are not "

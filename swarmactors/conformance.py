@@ -180,17 +180,27 @@ def check_contract(family: Family, behavior: str, reports: dict[int, dict]) -> N
                                     f"expected {names} (robot {rid})")
 
 
+def is_user_behavior(behavior: str | None) -> bool:
+    """A ``module:Class`` that is not one of the registered (shipped or installed) behaviours."""
+    return behavior is not None and ":" in behavior and behavior not in available(BEHAVIORS).values()
+
+
 def run_case(family: Family, case: Case, behavior: str | None, out_dir: Path, clock: str | None = None,
              determinism: bool = True) -> CaseResult:
-    """Run one case against ``behavior`` (None: the built-in one) and judge it."""
+    """Run one case against ``behavior`` (None: the built-in one) and judge it.
+
+    A user's behaviour runs in a host process (K = 1): one that hangs or allocates without bound then costs its
+    robots, not the world (docs/writing-behaviors.md); the built-in ones run in the world's process (K = 0).
+    """
     from swarmactors.launcher import new_run_id, run_world
     from transport import Endpoints
 
     raw = prepare(family, case, behavior, clock)
     sc = resolve_scenario(raw, f"<case {case.name}>")
     case_dir = out_dir / case.name.replace("/", "-")
-    result = asyncio.run(run_world(sc, case_dir / "k0", Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"]),
-                                   new_run_id(sc["run"]["name"])))
+    k = 1 if is_user_behavior(behavior) else 0
+    result = asyncio.run(run_world(sc, case_dir / f"k{k}", Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"]),
+                                   new_run_id(sc["run"]["name"]), processes=k))
     label = behavior or family.behavior
     check_contract(family, label, result.reports(family.name))
     outcomes = result.checks
@@ -202,7 +212,7 @@ def run_case(family: Family, case: Case, behavior: str | None, out_dir: Path, cl
         tick = None if same else first_difference(result.trace_path, other.trace_path)
         outcomes = outcomes + [{
             "name": "determinism", "passed": same, "value": f"K=2 {other['trace_hash'][:12]}",
-            "bound": f"K=0 {result['trace_hash'][:12]}",
+            "bound": f"K={k} {result['trace_hash'][:12]}",
             "detail": "" if same else f"trace differs with 2 host processes from tick {tick}",
             "first_tick": tick}]
         if not same:
@@ -229,7 +239,7 @@ def reproduce_command(scenario: str, behavior: str | None) -> str:
     import shlex
 
     command = f"swarmactors run {shlex.quote(scenario)}"
-    if behavior is None or ":" not in behavior or behavior in available(BEHAVIORS).values():
+    if not is_user_behavior(behavior):
         return command
     module = behavior.partition(":")[0]
     try:

@@ -53,6 +53,10 @@ from transport.messages import (
 log = logging.getLogger(__name__)
 
 
+class WorldLost(RuntimeError):
+    """The world went away (its liveliness token vanished, or it stopped answering) or lost this host."""
+
+
 class Robot:
     """One robot actor: its behaviours, its context, and what it will send."""
 
@@ -313,6 +317,7 @@ class RobotHost:
         self.key = b""
         self.run_info: RunInfo | None = None
         self.tick = -1
+        self.gone = False  # the world answered a step with Stop(gone): it had lost this host
 
     async def join(
         self,
@@ -345,12 +350,28 @@ class RobotHost:
         self.robots[robot.id] = robot
 
     async def run(self) -> None:
+        """Run the robots until the world says stop; WorldLost when the world dies first.
+
+        The host watches the world's liveliness token: when it vanishes (the world's process died, or its
+        session lease expired) the robots stop at once and WorldLost is raised, in either clock.
+        """
         if not self.name:
             await self.join()
-        if self.run_info.clock == "lockstep":
-            await self._run_lockstep()
-        else:
-            await self._run_realtime()
+        world_gone = asyncio.Event()
+        self.link.watch_liveliness(self.keys.world_alive, lambda _key, alive: alive or world_gone.set())
+        clock = asyncio.ensure_future(self._run_lockstep() if self.run_info.clock == "lockstep"
+                                      else self._run_realtime())
+        watch = asyncio.ensure_future(world_gone.wait())
+        try:
+            await asyncio.wait({clock, watch}, return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            watch.cancel()
+            if not clock.done():
+                clock.cancel()
+                await asyncio.wait({clock}, timeout=1.0)
+        if clock.done() and not clock.cancelled() and (clock.exception() is None or not world_gone.is_set()):
+            return clock.result()  # the run's own end (or its own error)
+        raise WorldLost(f"the world of run {self.keys.run_id!r} is gone (its liveliness token vanished)")
 
     # -- common to both clocks -----------------------------------
     def _uplink(self, tick: int, rows: list[RobotOut] = (), reports: dict | None = None) -> bytes:
@@ -398,6 +419,7 @@ class RobotHost:
             self.tick = msg.tick
             out = await self._step_lockstep(msg)
             msg = await self._ask(uplink, self._uplink(self.tick, out), timeout)
+        self.gone = isinstance(msg, Stop) and msg.gone
         if isinstance(msg, Stop) and not (msg.gone or msg.bye):
             await self._send_reports(uplink)
 

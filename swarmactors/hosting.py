@@ -11,12 +11,15 @@ import asyncio
 import dataclasses
 import gc
 import logging
+import signal
+import sys
 import time
 from collections.abc import Callable, Collection
 from contextlib import contextmanager
 
-from swarmactors.host import RobotHost
-from transport import Endpoints, Keys, Link
+from swarmactors.exitcodes import EXIT_RUNTIME
+from swarmactors.host import RobotHost, WorldLost
+from transport import Endpoints, Keys, Link, QueryError, host_loss_s, lease_settings
 
 log = logging.getLogger(__name__)
 PROGRESS_EVERY_S = 10.0  # a host's progress line, at most this often
@@ -26,13 +29,21 @@ class HostError(RuntimeError):
     """A host that could not reach or join its world (exit 3, one line naming the endpoint)."""
 
 
-def host_process(endpoint: str, run_id: str, count: int | None, allow: tuple[str, ...] = ()) -> None:
-    """Entry point of a spawned robot-host process."""
+def host_process(endpoint: str, run_id: str, count: int | None, allow: tuple[str, ...] = (),
+                 watchdog_s: float = 10.0) -> None:
+    """Entry point of a spawned robot-host process; exit 3 with one line when the world dies or loses it.
+
+    SIGINT is ignored: Ctrl-C reaches the whole process group, and the world ends the run, asking this host
+    for its robots' reports first (a host killed by the same Ctrl-C would lose them).
+    """
     logging.basicConfig(level=logging.WARNING)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    endpoints = Endpoints(mode="peer", connect=[endpoint], extra=lease_settings(watchdog_s))
     try:
-        asyncio.run(serve_host(Endpoints(mode="peer", connect=[endpoint]), run_id, count, allow))
-    except KeyboardInterrupt:  # Ctrl-C reaches the whole process group; the world ends the run
-        pass
+        asyncio.run(serve_host(endpoints, run_id, count, allow))
+    except HostError as exc:
+        print(f"swarmactors host: {exc}", file=sys.stderr, flush=True)
+        sys.exit(EXIT_RUNTIME)
 
 
 async def serve_host(endpoints: Endpoints, run_id: str, count: int | None, allow: Collection[str] = (),
@@ -65,8 +76,16 @@ async def serve_host(endpoints: Endpoints, run_id: str, count: int | None, allow
         reporter = asyncio.create_task(_report_progress(host, say))
         try:
             await host.run()
+        except WorldLost as exc:
+            raise HostError(f"{exc} (at {where}); this host stops") from None
+        except QueryError as exc:  # the session to the world broke (or the world dropped this host's step)
+            raise HostError(f"lost the world of run {run_id!r} at {where} at tick {host.tick}: {exc}") from None
         finally:
             reporter.cancel()
+        if host.gone:
+            limit = host_loss_s(host.run_info.watchdog_s)
+            raise HostError(f"the world of run {run_id!r} at {where} lost this host at tick {host.tick} "
+                            f"(silent longer than 2·watchdog_s + 5 = {limit:g} s); its robots are gone")
         say(host_summary(host, time.monotonic() - started))
 
 

@@ -10,6 +10,7 @@ that connect to the world's private Unix socket (``run(tcp=True)``: a loopback T
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import itertools
 import json
 import logging
@@ -32,12 +33,14 @@ from swarmactors.plugins import scenario_modules
 from swarmactors.result import Result, package_version, to_jsonable
 from swarmactors.scenario import world_spec
 from swarmactors.trace import TraceWriter
-from transport import Endpoints, Keys, Link, new_key
+from transport import Endpoints, Keys, Link, lease_settings, new_key
 from transport.auth import RUN_SECRET_ENV, run_secret_from_env
 from world import POS_DIGITS, World
 
 log = logging.getLogger(__name__)
 HASH_SEED = "0"
+HOSTS_EXIT_S = 5.0  # after the world ends, its host processes get this long (in all) to exit, then are killed
+STOP_SIGNALS = {signal.SIGINT: "SIGINT", signal.SIGTERM: "SIGTERM"}  # both end a run the same way
 
 
 @contextmanager
@@ -134,27 +137,31 @@ async def run_world(
     interrupted = False
     procs: list[multiprocessing.Process] = []
     loop = asyncio.get_running_loop()
+    watchdog_s = float(sc["run"].get("watchdog_s", 10.0))
+    # the session lease follows the documented rule 2·watchdog_s + 5 (transport.lease_settings)
+    endpoints = dataclasses.replace(endpoints, extra={**lease_settings(watchdog_s), **endpoints.extra})
     with Link(endpoints, loop) as link:
         world = World(world_spec(sc), link, keys, sinks=[writer], on_tick=on_tick, run_secret=run_secret)
         world.open()
         if on_open:
             on_open(world, link)
 
-        def interrupt() -> None:
+        def interrupt(name: str) -> None:
             nonlocal interrupted
             interrupted = True
-            world.request_stop("interrupted (SIGINT)")
+            world.request_stop(f"interrupted ({name})", interrupted=True)
 
-        try:
-            loop.add_signal_handler(signal.SIGINT, interrupt)
-        except (RuntimeError, ValueError):  # not the main thread
-            pass
+        for signum, name in STOP_SIGNALS.items():  # SIGTERM (docker stop) is handled as SIGINT
+            try:
+                loop.add_signal_handler(signum, interrupt, name)
+            except (RuntimeError, ValueError):  # not the main thread
+                pass
         try:
             n = len(world.robots)
             k = min(processes, n)
             if k > 0:
                 endpoint = link.locators()[0]
-                procs = spawn_hosts(endpoint, run_id, split(n, k), allowed_modules(sc), run_secret)
+                procs = spawn_hosts(endpoint, run_id, split(n, k), allowed_modules(sc), run_secret, watchdog_s)
             with quiet_gc():
                 try:
                     async with asyncio.TaskGroup() as tg:
@@ -164,15 +171,13 @@ async def run_world(
                 except BaseExceptionGroup as group:  # report the first failure as itself (e.g. robots never claimed)
                     raise group.exceptions[0] from None
         finally:
-            try:
-                loop.remove_signal_handler(signal.SIGINT)
-            except (RuntimeError, ValueError):
-                pass
+            for signum in STOP_SIGNALS:
+                try:
+                    loop.remove_signal_handler(signum)
+                except (RuntimeError, ValueError):
+                    pass
             writer.close()
-            for p in procs:
-                await asyncio.to_thread(p.join, 15)
-                if p.is_alive():
-                    p.kill()
+            await asyncio.to_thread(end_hosts, procs, HOSTS_EXIT_S)
     summary = world.summary()
     data = assemble(sc, summary, writer, run_id, processes, interrupted)
     result = write_result(data, out_dir)
@@ -196,16 +201,30 @@ async def _local_host(link: Link, keys: Keys, allow: Collection[str] = (), run_s
     await host.run()
 
 
+def end_hosts(procs: list[multiprocessing.Process], within_s: float) -> None:
+    """Wait up to ``within_s`` in all for host processes to exit, then kill the ones still running."""
+    deadline = time.monotonic() + within_s
+    for p in procs:
+        p.join(max(0.0, deadline - time.monotonic()))
+    for p in procs:
+        if p.is_alive():
+            p.kill()
+            p.join(1.0)
+
+
 def spawn_hosts(endpoint: str, run_id: str, counts: list[int], allow: Collection[str] = (),
-                run_secret: bytes | None = None) -> list[multiprocessing.Process]:
+                run_secret: bytes | None = None, watchdog_s: float = 10.0) -> list[multiprocessing.Process]:
     """Start one host process per count (``spawn`` method, fixed hash seed); ``allow`` as serve_host.
+
+    ``watchdog_s`` sets the hosts' session lease by the documented rule (transport.lease_settings).
 
     ``run_secret`` reaches the children through their environment (``SWARMACTORS_RUN_SECRET``), not argv.
     """
     ctx = multiprocessing.get_context("spawn")
     allow = tuple(sorted(allow))
     with fixed_hash_seed(), _env(RUN_SECRET_ENV, run_secret.hex() if run_secret else None):
-        procs = [ctx.Process(target=host_process, args=(endpoint, run_id, c, allow), daemon=True) for c in counts]
+        procs = [ctx.Process(target=host_process, args=(endpoint, run_id, c, allow, watchdog_s),
+                                 daemon=True) for c in counts]
         for p in procs:
             p.start()
     return procs

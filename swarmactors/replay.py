@@ -124,7 +124,8 @@ class FrameStyle:
 
 
 def render(trace: str | Path, out: str | Path, every: int = 1, fps: float = 10.0, field: str | None = None,
-           progress: Callable[[int, int], None] | None = None, labels: bool | None = None) -> int:
+           progress: Callable[[int, int], None] | None = None, labels: bool | None = None,
+           verify: bool = True) -> int:
     """Write an animation of the trace to ``out`` (.gif or .mp4); return the number of frames.
 
     Every frame has the legend of ``field`` (categories, or one colour bar on a scale fixed for the run), robot
@@ -145,7 +146,7 @@ def render(trace: str | Path, out: str | Path, every: int = 1, fps: float = 10.0
         raise ValueError(f"--every {every}: must be >= 1")
     if suffix == ".mp4" and not animation.writers.is_available("ffmpeg"):
         raise ValueError(f"{out}: writing MP4 needs ffmpeg on the PATH (apt-get install ffmpeg), or write a .gif")
-    replay = Replay(trace)
+    replay = Replay(trace, verify=verify)
     ticks = replay.ticks()[::every]
     if ticks[-1] != replay.last:
         ticks.append(replay.last)

@@ -104,10 +104,15 @@ def _replay(args, err: Console) -> int:
     from swarmactors.replay import Replay, render
 
     trace = _trace_path(args.trace)
+    verify = not getattr(args, "no_verify", False)
+    if not verify:
+        note = Replay(trace, verify=False).note
+        if note:
+            _say(note)
     if args.events:
         from swarmactors.scene import events_toml
 
-        replay = Replay(trace)
+        replay = Replay(trace, verify=verify)
         print(events_toml(replay.full_scene().control_events(), replay.header.get("run_id", "")), end="")
         return EXIT_OK
     out = args.gif or args.mp4
@@ -122,14 +127,14 @@ def _replay(args, err: Console) -> int:
                       TimeElapsedColumn(), console=err, disable=args.quiet) as bar:
             task = bar.add_task("", total=None)
             frames = render(trace, out, every=args.every, fps=args.fps, field=args.field,
-                            progress=lambda i, n: bar.update(task, completed=i, total=n))
+                            progress=lambda i, n: bar.update(task, completed=i, total=n), verify=verify)
         if not args.quiet:
             _say(f"wrote {out} ({frames} frames)")
         return EXIT_OK
     from swarmactors.viewer import serve_replay
 
-    Replay(trace)  # read it now: a bad file is an error before the server starts
-    asyncio.run(serve_replay(trace, args.view_host, args.view_port, announce=_say))
+    Replay(trace, verify=verify)  # read it now: a bad file is an error before the server starts
+    asyncio.run(serve_replay(trace, args.view_host, args.view_port, announce=_say, verify=verify))
     return EXIT_OK
 
 

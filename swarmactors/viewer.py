@@ -697,11 +697,12 @@ async def serve_remote(endpoint: str, run_id: str | None, host: str, port: int,
             await server.close()
 
 
-async def serve_replay(trace: Path, host: str, port: int, announce: Callable[[str], None] = print) -> None:
-    """``swarmactors replay TRACE --view``: the page with a time slider, until Ctrl-C."""
+async def serve_replay(trace: Path, host: str, port: int, announce: Callable[[str], None] = print,
+                       verify: bool = True) -> None:
+    """``swarmactors replay TRACE --view``: the page with a time slider, until Ctrl-C (``verify`` as Replay)."""
     from swarmactors.replay import Replay
 
-    server = ViewerServer(host, port, ReplaySource(Replay(trace)))
+    server = ViewerServer(host, port, ReplaySource(Replay(trace, verify=verify)))
     url = await server.start()
     announce(f"viewer: {url}  (replay of {trace}; Ctrl-C to quit)")
     try:

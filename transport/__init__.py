@@ -6,7 +6,7 @@ wire codec and the bridge from Zenoh's callback threads into asyncio.
 
 from transport.auth import new_key, seal, unseal
 from transport.codec import MalformedMessage, pack, unpack
-from transport.config import Endpoints, make_config
+from transport.config import Endpoints, host_loss_s, lease_settings, make_config
 from transport.keys import Keys
 from transport.link import Link, PendingQuery, QueryError
 from transport.security import Security, ensure_files
@@ -20,6 +20,8 @@ __all__ = [
     "QueryError",
     "Security",
     "ensure_files",
+    "host_loss_s",
+    "lease_settings",
     "make_config",
     "new_key",
     "seal",

@@ -44,6 +44,23 @@ class Endpoints:
             check_endpoint(ep)
 
 
+DEFAULT_WATCHDOG_S = 10.0  # run.watchdog_s when a scenario does not set it
+
+
+def host_loss_s(watchdog_s: float = DEFAULT_WATCHDOG_S) -> float:
+    """How long a silent host may take before the world loses it: 2·watchdog_s + 5 (docs/writing-behaviors.md)."""
+    return 2.0 * watchdog_s + 5.0
+
+
+def lease_settings(watchdog_s: float = DEFAULT_WATCHDOG_S) -> dict[str, object]:
+    """Zenoh config keys giving a session the lease of the documented rule (``host_loss_s``).
+
+    Zenoh's own default lease (10 s) would drop a host stalled for 10 s before the world's watchdog can act;
+    both ends of a run announce this lease instead, so the rule decides.
+    """
+    return {"transport/link/tx/lease": int(host_loss_s(watchdog_s) * 1000)}
+
+
 def make_config(endpoints: Endpoints) -> zenoh.Config:
     """Build the Zenoh config for ``endpoints`` (multicast scouting always off)."""
     cfg = zenoh.Config()

@@ -66,6 +66,11 @@ class Keys:
         return f"@swarmactors/{self.run_id}/alive/{host}"
 
     @property
+    def world_alive(self) -> str:
+        """Liveliness token of the world; its disappearance tells the hosts that the run is over."""
+        return f"@swarmactors/{self.run_id}/world"
+
+    @property
     def alive_all(self) -> str:
         return f"@swarmactors/{self.run_id}/alive/*"
 

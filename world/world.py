@@ -32,7 +32,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from transport import Keys, Link, MalformedMessage, PendingQuery, new_key, pack, seal, unseal
+from transport import Keys, Link, MalformedMessage, PendingQuery, host_loss_s, new_key, pack, seal, unseal
 from transport.messages import (
     CLOCK_COMMANDS,
     MAX_PER_REQUEST,
@@ -73,6 +73,7 @@ log = logging.getLogger(__name__)
 _NOTHING: tuple = ([], [])
 _BY_DST_SRC_SEQ = itemgetter(0, 1, 2)
 POS_DIGITS = 6  # positions in traces, state and hashes are rounded to 1e-6 length units
+INTERRUPT_REPORTS_S = 5.0  # an interrupted run waits at most this long for its hosts' final reports
 MAX_BACKDATE_S = 0.05  # realtime: a frame's latency runs from at most this long before the world received it
 
 
@@ -150,6 +151,8 @@ class World:
         self._awaited_tick = -1
         self._ready = asyncio.Event()
         self._final_reports = asyncio.Event()
+        self.collecting = False  # the run is over: the world is collecting the hosts' final reports
+        self.interrupted = False  # stopped by a signal: reports are awaited INTERRUPT_REPORTS_S at most
         if isinstance(self.clock, RealtimeClock):
             self.clock.on_due = self._rt_deliver
         # this tick's reach and sensing
@@ -180,6 +183,7 @@ class World:
         self.link.serve(self.keys.up_all, self._on_step_query)
         self.link.subscribe(self.keys.up_all, self._on_up_put)
         self.link.watch_liveliness(self.keys.alive_all, self._on_liveliness)
+        self.link.declare_token(self.keys.world_alive)  # hosts leave when it vanishes (the world died)
 
     async def run(self) -> None:
         """Wait until every robot is claimed, then run the clock to the end (or until stopped)."""
@@ -193,10 +197,11 @@ class World:
             await self._collect_reports()
             self.finished = True
 
-    def request_stop(self, reason: str) -> None:
-        """Finish the current tick, then end the run (also used for SIGINT)."""
+    def request_stop(self, reason: str, interrupted: bool = False) -> None:
+        """Finish the current tick, then end the run (``interrupted``: SIGINT or SIGTERM, do not wait for it)."""
         if self.stop_reason is None:
             self.stop_reason = reason
+        self.interrupted = self.interrupted or interrupted
         self.clock.stop()
         self._all_stepped.set()
         self._ready.set()
@@ -348,7 +353,7 @@ class World:
             self.record.malformed(None, str(exc))
             q.reply_error(str(exc))
             return
-        if self.finished:
+        if self.finished or self.collecting:
             q.reply_error("the run has finished")
             return
         name = f"h{len(self.hosts)}"
@@ -436,6 +441,11 @@ class World:
             if msg.tick == -1:
                 self._held[host] = (-1, None, None)
                 self._check_ready()
+                if self.collecting:  # registered after the stop went out: it gets its own
+                    self.link.publish(self.keys.down(host), self._down(host, Stop(self.tick)))
+            return
+        if self.collecting and msg.reports is None:  # a step that arrives after the stop: its host reports now
+            q.reply(self._down(host, Stop(self.tick)))
             return
         if host in self._held:  # one step per host per tick: a second one is a replay or a forgery
             self.record.malformed(None, f"second step from {host} while one is pending (tick {msg.tick})")
@@ -465,7 +475,9 @@ class World:
         if msg.tick == -1:
             return "registered already" if entry.registered else None
         if msg.reports is not None:
-            return None if msg.tick > self._awaited_tick else f"report for tick {msg.tick} before the end"
+            if msg.tick > self._awaited_tick or self.collecting:
+                return None
+            return f"report for tick {msg.tick} before the end"
         if not self.started or msg.tick != self._awaited_tick:
             what = "stale" if msg.tick < self._awaited_tick else "future"
             return f"{what} step for tick {msg.tick} (awaited: {self._awaited_tick if self.started else -1})"
@@ -630,8 +642,8 @@ class World:
     def _on_liveliness(self, key: str, alive: bool) -> None:
         host = self.keys.host_of(key)
         entry = self.hosts.get(host)
-        if alive or entry is None or not entry.alive or entry.reported or self.finished:
-            return  # a host that delivered its final report may leave
+        if alive or entry is None or not entry.alive or self.finished or (self.collecting and entry.reported):
+            return  # a host may leave once the run is over and it delivered its final report; before, it is lost
         self._lose_host(host, "host-lost")
 
     def _lose_host(self, host: str, cause: str) -> None:
@@ -729,7 +741,7 @@ class World:
 
     async def _await_steps(self) -> None:
         """Wait for every live host's step; a host silent past the watchdog loses its robots."""
-        limit = 2 * self.watchdog_s + 5.0
+        limit = host_loss_s(self.watchdog_s)
         if self._all_in():
             return
         try:
@@ -747,6 +759,7 @@ class World:
     async def _collect_reports(self) -> None:
         """Tell every live host to stop and wait (bounded) for its robots' reports."""
         stop = Stop(self.tick)
+        self.collecting = True
         self._check_reports_in()
         if self.lockstep:
             self._awaited_tick = self.tick
@@ -758,7 +771,8 @@ class World:
             for host in self._live_hosts():
                 self.link.publish(self.keys.down(host), self._down(host, stop))
         try:
-            await asyncio.wait_for(self._final_reports.wait(), self.watchdog_s + 5.0)
+            wait = min(self.watchdog_s + 5.0, INTERRUPT_REPORTS_S) if self.interrupted else self.watchdog_s + 5.0
+            await asyncio.wait_for(self._final_reports.wait(), wait)
         except TimeoutError:
             log.warning("some hosts sent no final report")
         if self.lockstep:
