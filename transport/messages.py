@@ -96,7 +96,7 @@ class JoinReply(_Message):
 
 
 # ----------------------------------------------------------------- host -> world
-class FrameOut(_Row, omit_defaults=True):
+class FrameOut(_Row):
     """A frame a robot radios: ``dst`` None is a broadcast (minus ``exclude``); ``body`` is packed msgpack."""
 
     dst: RobotId | None
@@ -174,7 +174,7 @@ class Inputs(msgspec.Struct, tag="in", forbid_unknown_fields=True, omit_defaults
     new: list[RobotDescr] = msgspec.field(default_factory=list)
 
 
-class Delivery(_Row, omit_defaults=True):
+class Delivery(_Row):
     """Realtime: one frame for one robot, to be handed to it at ``due`` (at once when None or past)."""
 
     dst: int
