@@ -45,7 +45,8 @@ def test_uplink_round_trip_and_short_wire_names():
     assert decode(data, Uplink, what="uplink") == up
     plain = msgpack.unpackb(data, raw=False)
     # a frame row ends with its realtime send stamp `at` (None in lockstep)
-    assert plain == {"h": "h0", "t": 3, "r": [[2, [0.1, 0.0], [[None, "K", 1, b"\x01", [4], None]], {"role": "x"}, None]]}
+    frame = [None, "K", 1, b"\x01", [4], None]
+    assert plain == {"h": "h0", "t": 3, "r": [[2, [0.1, 0.0], [frame], {"role": "x"}, None]]}
 
 
 @pytest.mark.parametrize("bad,field", [
