@@ -52,20 +52,49 @@ def style() -> Iterator:
 
 
 def write_charts(result: Result, out_dir: Path, field: str | None = None) -> list[Path]:
-    """Write every chart that applies to this run; return their paths."""
-    records = result.trace
-    if not records:
+    """Write every chart that applies to this run; return their paths.
+
+    The trace is streamed once (``Result.records``): per tick only counts are kept, positions only for the
+    sampled ticks, and status changes as they come, so memory does not grow with the trace's full size.
+    """
+    counts, records, history = _digest(result)
+    if not counts:
         return []
     name = result["scenario"]["run"]["name"]
     ranges = {**initial_ranges(result["scenario"]), **result.ranges()}
     out = [connectivity(records, ranges, out_dir / "connectivity.png", name),
-           messages(records, out_dir / "messages.png", name)]
-    history = _status_history(records)
+           messages(counts, out_dir / "messages.png", name)]
     if any("role" in fields for fields in history.values()):
         out.append(roles(records, history, out_dir / "roles.png", name))
     if field:
         out.append(convergence(records, history, field, out_dir / "convergence.png", name))
     return out
+
+
+def _digest(result: Result) -> tuple[list[dict], list[dict], dict[int, dict]]:
+    """One pass over the trace: per-tick counts, the records of about ``MAX_COLUMNS`` sampled ticks, statuses.
+
+    Counts are ``{"t", "n" (robots alive), "sent", "del", "drop": {cause: count}}``; the sampled records keep
+    ``t`` and ``pos`` (every k-th tick, k from the run's tick count, and always the last).
+    """
+    every = max(1, -(-int(result.data.get("ticks") or 1) // MAX_COLUMNS))
+    counts: list[dict] = []
+    sampled: list[dict] = []
+    history: dict[int, dict] = {}
+    last = None
+    for k, rec in enumerate(result.records()):
+        drops: dict[str, int] = {}
+        for d in rec.get("drop", ()):
+            drops[d[3]] = drops.get(d[3], 0) + 1
+        counts.append({"t": rec["t"], "n": len(rec.get("pos", ())), "sent": len(rec.get("sent", ())),
+                       "del": len(rec.get("del", ())), "drop": drops})
+        _add_status(history, rec)
+        last = {"t": rec["t"], "pos": rec.get("pos", [])}
+        if k % every == 0:
+            sampled.append(last)
+    if last is not None and sampled[-1] is not last:
+        sampled.append(last)
+    return counts, sampled, history
 
 
 def _sampled(records: list[dict]) -> list[int]:
@@ -116,13 +145,14 @@ def connectivity(records: list[dict], ranges: dict[int, float], path: Path, name
     return path
 
 
-def messages(records: list[dict], path: Path, name: str) -> Path:
-    ticks = [r["t"] for r in records]
-    alive = np.array([max(len(r.get("pos", [])), 1) for r in records], dtype=float)
-    sent = np.array([len(r.get("sent", [])) for r in records], dtype=float)
-    delivered = np.array([len(r.get("del", [])) for r in records], dtype=float)
-    causes = sorted({d[3] for r in records for d in r.get("drop", [])})
-    drops = {c: np.array([sum(1 for d in r.get("drop", []) if d[3] == c) for r in records]) for c in causes}
+def messages(counts: list[dict], path: Path, name: str) -> Path:
+    """Frames sent and delivered per alive robot, and drops by cause, per tick (``counts`` from ``_digest``)."""
+    ticks = [c["t"] for c in counts]
+    alive = np.array([max(c["n"], 1) for c in counts], dtype=float)
+    sent = np.array([c["sent"] for c in counts], dtype=float)
+    delivered = np.array([c["del"] for c in counts], dtype=float)
+    causes = sorted({cause for c in counts for cause in c["drop"]})
+    drops = {cause: np.array([c["drop"].get(cause, 0) for c in counts]) for cause in causes}
     with style() as plt:
         fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 4.6), sharex=True)
         a1.plot(ticks, sent / alive, color=PALETTE[0], lw=1.2, label="frames sent")
@@ -146,15 +176,12 @@ def messages(records: list[dict], path: Path, name: str) -> Path:
     return path
 
 
-def _status_history(records: list[dict]) -> dict[int, dict]:
-    """Robot id -> field -> [(tick, value), ...] from the trace's status changes."""
-    hist: dict[int, dict] = {}
-    for rec in records:
-        for rid, changes in rec.get("status", {}).items():
-            fields = hist.setdefault(rid, {})
-            for k, v in changes.items():
-                fields.setdefault(k, []).append((rec["t"], v))
-    return hist
+def _add_status(hist: dict[int, dict], rec: dict) -> None:
+    """Add one record's status changes to ``hist``: robot id -> field -> [(tick, value), ...]."""
+    for rid, changes in rec.get("status", {}).items():
+        fields = hist.setdefault(rid, {})
+        for k, v in changes.items():
+            fields.setdefault(k, []).append((rec["t"], v))
 
 
 def _value_at(changes: list[tuple[int, object]], t: int):

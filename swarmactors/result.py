@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import subprocess
+from collections.abc import Iterator
 from functools import cached_property
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
@@ -167,8 +168,36 @@ class Result:
             raise FileNotFoundError("this run wrote no trace (run.trace = false?)")
         return read_trace(self.trace_path)[1]
 
+    def records(self) -> Iterator[dict]:
+        """The tick records one at a time: streamed from the file unless ``trace`` was read already.
+
+        What needs one tick or a running summary reads through this, so its memory is O(N), not O(ticks).
+        """
+        if "trace" in self.__dict__:
+            yield from self.__dict__["trace"]
+            return
+        from swarmactors.trace import iter_trace
+
+        if self.trace_path is None:
+            raise FileNotFoundError("this run wrote no trace (run.trace = false?)")
+        header = True
+        for obj in iter_trace(self.trace_path):
+            if header:
+                header = False
+            elif not obj.get("end"):
+                yield obj
+
+    def last_record(self) -> dict:
+        """The trace's last tick record (streamed: only one record held at a time)."""
+        last = None
+        for last in self.records():  # noqa: B007 — the loop keeps the last one
+            pass
+        if last is None:
+            raise KeyError("the trace has no tick")
+        return last
+
     def record(self, tick: int) -> dict:
-        for rec in self.trace:
+        for rec in self.records():
             if rec["t"] == tick:
                 return rec
         raise KeyError(f"no tick {tick} in the trace")
@@ -181,7 +210,7 @@ class Result:
         """Cut links and partition groups in force at ``tick``, replayed from the trace's events."""
         cuts: set[frozenset] = set()
         group: dict[int, int] = {}
-        for rec in self.trace:
+        for rec in self.records():
             if rec["t"] > tick:
                 break
             for ev in rec.get("ev", ()):
@@ -195,7 +224,7 @@ class Result:
                     cuts, group = set(), {}
         return cuts, group
 
-    def graph_at(self, tick: int, directed: bool = False) -> nx.Graph:
+    def graph_at(self, tick: int, directed: bool = False, rec: dict | None = None) -> nx.Graph:
         """The true radio graph at ``tick``.
 
         Alive robots, links in range (mutual unless ``directed``: an edge a -> b when b is within a's range),
@@ -207,7 +236,7 @@ class Result:
         import networkx as nx
         from scipy.spatial import cKDTree
 
-        rec = self.record(tick)
+        rec = self.record(tick) if rec is None else rec  # ``rec``: tick's record, when the caller has it
         cuts, group = self.severed_at(tick)
         ranges = self.ranges()
         ids = [row[0] for row in rec.get("pos", [])]
@@ -241,9 +270,7 @@ class Result:
 
     def final_graph(self, directed: bool = False) -> nx.Graph:
         """The true radio graph at the last tick of the trace (``graph_at`` of that tick)."""
-        if not self.trace:
-            raise KeyError("the trace has no tick")
-        return self.graph_at(self.trace[-1]["t"], directed)
+        return self.graph_at(self.last_record()["t"], directed)
 
     def poses(self):
         """Per-tick per-robot positions and status fields as a pandas DataFrame (needs pandas; swarmactors.export)."""

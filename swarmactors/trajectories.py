@@ -22,6 +22,7 @@ from matplotlib.colors import LogNorm  # noqa: E402
 
 PATHS_MAX = 200  # above this many robots: a density heat map
 SEGMENTS_MAX = 200_000  # drawn path segments at most (ticks are subsampled beyond)
+RECORDS_MAX = 2_000  # a finished run's trace is streamed and thinned to about this many ticks (and the last)
 
 
 def tracks(records: list[dict]) -> tuple[np.ndarray, dict[int, np.ndarray]]:
@@ -146,8 +147,31 @@ def plot_trajectories(records: list[dict], path: Path, title: str = "", bounds: 
 def plot_result_trajectories(result, path: Path, density: bool | None = None, field: str | None = None) -> Path:
     """``plot_trajectories`` for a finished run (``swarmactors.result.Result`` with a trace)."""
     sc = result["scenario"]
-    return plot_trajectories(result.trace, path, sc["run"]["name"], sc.get("world", {}).get("bounds"), density,
-                             field)
+    return plot_trajectories(thinned_records(result), path, sc["run"]["name"], sc.get("world", {}).get("bounds"),
+                             density, field)
+
+
+def thinned_records(result, most: int = RECORDS_MAX) -> list[dict]:
+    """The trace streamed and thinned to every k-th tick record (about ``most``, and always the last one).
+
+    A kept record holds ``t``, ``pos`` and the status changes since the previous kept one (so status tracks
+    stay exact at the kept ticks); memory is O(N · most), whatever the trace's length.
+    """
+    every = max(1, -(-int(result.data.get("ticks") or 1) // most))
+    kept: list[dict] = []
+    status: dict = {}
+    last = None
+    for k, rec in enumerate(result.records()):
+        for rid, changes in rec.get("status", {}).items():
+            status.setdefault(rid, {}).update(changes)
+        last = {"t": rec["t"], "pos": rec.get("pos", [])}
+        if k % every == 0:
+            last["status"], status = status, {}
+            kept.append(last)
+    if last is not None and (not kept or kept[-1] is not last):
+        last["status"] = status
+        kept.append(last)
+    return kept
 
 
 def _by_field(fig, ax, segs: np.ndarray, values: list, field: str, lw: float) -> list:
