@@ -62,7 +62,9 @@ def write_charts(result: Result, out_dir: Path, field: str | None = None) -> lis
         return []
     name = result["scenario"]["run"]["name"]
     ranges = {**initial_ranges(result["scenario"]), **result.ranges()}
-    out = [connectivity(records, ranges, out_dir / "connectivity.png", name),
+    from swarmactors.scenario import occluding_space
+
+    out = [connectivity(records, ranges, out_dir / "connectivity.png", name, occluding_space(result["scenario"])),
            messages(counts, out_dir / "messages.png", name)]
     if any("role" in fields for fields in history.values()):
         out.append(roles(records, history, out_dir / "roles.png", name))
@@ -104,7 +106,7 @@ def _sampled(records: list[dict]) -> list[int]:
     return sorted(set(np.linspace(0, n - 1, MAX_COLUMNS).round().astype(int).tolist()))
 
 
-def connectivity(records: list[dict], ranges: dict[int, float], path: Path, name: str) -> Path:
+def connectivity(records: list[dict], ranges: dict[int, float], path: Path, name: str, space=None) -> Path:
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
@@ -123,7 +125,7 @@ def connectivity(records: list[dict], ranges: dict[int, float], path: Path, name
         ids = [r[0] for r in rows]
         xy = np.array([r[1:] for r in rows], dtype=float)
         rng = np.array([ranges.get(r, 1.0) for r in ids])
-        pairs = np.array(mutual_links(xy, rng), dtype=int).reshape(-1, 2)
+        pairs = np.array(mutual_links(xy, rng, space), dtype=int).reshape(-1, 2)
         g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])) if len(pairs) else
                        (np.zeros(0), (np.zeros(0, int), np.zeros(0, int))), shape=(len(ids), len(ids)))
         k, labels = connected_components(g, directed=False)

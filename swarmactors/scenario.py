@@ -588,17 +588,19 @@ def _connect_groups(sc: dict, source: str, rng: np.random.Generator) -> None:
         return np.vstack([np.array(g["positions"]) for g in groups])
 
     try:
-        draw_until_connected(draw, ranges, attempts=2000)
+        draw_until_connected(draw, ranges, attempts=2000, space=occluding_space(sc))
     except ValueError:
         raise ScenarioError(
             source, "robots.connected", "no connected placement found in 2000 draws; enlarge range or shrink area"
         ) from None
 
 
-def mutual_links(pos: np.ndarray, ranges: np.ndarray) -> list[tuple[int, int]]:
+def mutual_links(pos: np.ndarray, ranges: np.ndarray, space=None) -> list[tuple[int, int]]:
     """Pairs (a, b), a < b, each within the other's range, sorted: the world's own rule (``world.sensing.within``).
 
-    The one "who is in range" of the product, shared by the radio, the charts and connected placements.
+    The one "who is in range" of the product, shared by the radio, the charts and connected placements. With
+    ``space`` (a ``transport.space.Space``, when ``radio.occlusion`` is on: ``occluding_space``), pairs whose
+    link crosses an obstacle are left out, by the same geometry the radio uses.
     """
     from world.sensing import within
 
@@ -607,10 +609,20 @@ def mutual_links(pos: np.ndarray, ranges: np.ndarray) -> list[tuple[int, int]]:
         return []
     reach = within(pos, np.arange(len(pos)), np.asarray(ranges, dtype=float))
     heard = {a: set(bs.tolist()) for a, bs in reach.items()}
-    return [(a, b) for a in range(len(pos)) for b in reach[a].tolist() if b > a and a in heard[b]]
+    pairs = [(a, b) for a in range(len(pos)) for b in reach[a].tolist() if b > a and a in heard[b]]
+    if space is not None and pairs:
+        a, b = np.array(pairs).T
+        pts = _as3d(pos)
+        pairs = [p for p, hidden in zip(pairs, space.blocked(pts[a], pts[b], ground=False), strict=True) if not hidden]
+    return pairs
 
 
-def connected(pos: np.ndarray, ranges: np.ndarray) -> bool:
+def occluding_space(sc: dict):
+    """The obstacles that block links in a resolved scenario (``radio.occlusion`` on), or None."""
+    return _space_of(sc) if sc.get("radio", {}).get("occlusion") else None
+
+
+def connected(pos: np.ndarray, ranges: np.ndarray, space=None) -> bool:
     """Whether the mutual links (``mutual_links``) connect every robot (no robot: False)."""
     n = len(pos)
     if n == 0:
@@ -624,7 +636,7 @@ def connected(pos: np.ndarray, ranges: np.ndarray) -> bool:
         return i
 
     parts = n
-    for a, b in mutual_links(pos, ranges):
+    for a, b in mutual_links(pos, ranges, space):
         ra, rb = root(a), root(b)
         if ra != rb:
             parent[ra] = rb
@@ -632,15 +644,15 @@ def connected(pos: np.ndarray, ranges: np.ndarray) -> bool:
     return parts == 1
 
 
-def draw_until_connected(draw: Callable[[], np.ndarray], ranges: Any, attempts: int) -> np.ndarray:
+def draw_until_connected(draw: Callable[[], np.ndarray], ranges: Any, attempts: int, space=None) -> np.ndarray:
     """Call ``draw()`` until the positions it returns are connected (``connected``); ValueError after ``attempts``.
 
-    ``ranges``: one radio range for all, or one per robot.
+    ``ranges``: one radio range for all, or one per robot; ``space``: obstacles that block links (or None).
     """
     for _ in range(attempts):
         pts = np.asarray(draw(), dtype=float)
         radii = np.broadcast_to(np.asarray(ranges, dtype=float), (len(pts),))
-        if connected(pts, radii):
+        if connected(pts, radii, space):
             return pts
     raise ValueError(f"no connected placement in {attempts} draws")
 

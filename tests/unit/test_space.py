@@ -266,3 +266,30 @@ def test_rays_measure_the_distance_to_the_wall():
     pos = np.array([[2.0, 5.0]])
     out = rules.rays(pos, np.array([0.0]), np.array([3.0]), np.array([4]), np.array([0]))
     assert out[0][0] == pytest.approx(2.0) and out[0][1:] == [np.inf] * 3
+
+
+def test_the_one_who_is_in_range_leaves_out_occluded_links_and_placement_respects_it():
+    """mutual_links with the occluding space (issue 13's one rule).
+
+    A link through the wall is not a link; a connected placement with occlusion on is connected in the
+    occlusion-aware graph (checked with shapely).
+    """
+    import networkx as nx
+
+    from swarmactors.scenario import mutual_links, resolve_scenario
+
+    space = space_from_spec({"dims": 2, "obstacles": [WALL]})
+    pos = np.array([[3.5, 5.0], [5.5, 5.0], [3.5, 6.0]])
+    assert mutual_links(pos, np.full(3, 3.0)) == [(0, 1), (0, 2), (1, 2)]
+    assert mutual_links(pos, np.full(3, 3.0), space) == [(0, 2)]
+    sc = resolve_scenario({"run": {"ticks": 1, "seed": 4}, "radio": {"range": 2.5, "occlusion": True},
+                           "world": {"bounds": [[0, 0], [10, 10]],
+                                     "obstacles": [{"box": [[4.0, 0.0], [5.0, 7.0]]}]},
+                           "robots": [{"count": 25, "connected": True}]}, "<test>")
+    pts = np.array(sc["robots"][0]["positions"])
+    oracle = Occluders(sc["world"])
+    g = nx.Graph()
+    g.add_nodes_from(range(len(pts)))
+    g.add_edges_from((a, b) for a in range(len(pts)) for b in range(a + 1, len(pts))
+                     if np.linalg.norm(pts[a] - pts[b]) <= 2.5 and not oracle.blocks(pts[a], pts[b]))
+    assert nx.is_connected(g)
