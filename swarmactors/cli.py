@@ -2,7 +2,7 @@
 
 Exit codes: 0 the run finished and every check passed; 1 a check failed;
 2 bad input (nothing started); 3 the run could not complete (e.g. robots never
-claimed); 130 interrupted by SIGINT (trace and a partial result.json written).
+claimed); 130 interrupted by SIGINT or SIGTERM (trace and a partial result.json written).
 """
 
 from __future__ import annotations

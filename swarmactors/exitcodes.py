@@ -10,7 +10,7 @@ class Exit(IntEnum):
     CHECK = 1  # a check failed
     INPUT = 2  # bad input: nothing was started
     RUNTIME = 3  # the run could not complete (robots never claimed, the world died, ...)
-    INTERRUPTED = 130  # stopped by Ctrl-C (SIGINT)
+    INTERRUPTED = 130  # stopped by Ctrl-C (SIGINT) or SIGTERM (docker stop)
 
 
 EXIT_OK, EXIT_CHECK, EXIT_INPUT, EXIT_RUNTIME, EXIT_INTERRUPTED = (

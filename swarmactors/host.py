@@ -371,7 +371,9 @@ class RobotHost:
                 await asyncio.wait({clock}, timeout=1.0)
         if clock.done() and not clock.cancelled() and (clock.exception() is None or not world_gone.is_set()):
             return clock.result()  # the run's own end (or its own error)
-        raise WorldLost(f"the world of run {self.keys.run_id!r} is gone (its liveliness token vanished)")
+        raise WorldLost(f"lost the world of run {self.keys.run_id!r} at tick {self.tick}: its liveliness token "
+                        "vanished (the world died, or its session dropped this host after a silence longer than "
+                        "the lease, 2·watchdog_s + 5 s)")
 
     # -- common to both clocks -----------------------------------
     def _uplink(self, tick: int, rows: list[RobotOut] = (), reports: dict | None = None) -> bytes:

@@ -219,3 +219,41 @@ def test_a_host_that_goes_quiet_after_a_stop_is_lost(tmp_path):
     failed = {rid: r["failed"] for rid, r in result.robots.items()}
     assert all(f is not None and f["cause"] == "host-lost" for f in failed.values()), failed
     assert not any(r["alive"] for r in result.robots.values())
+
+
+def test_a_lockstep_host_stalled_past_the_watchdog_is_lost_and_exits_with_one_line(tmp_path):
+    """SIGSTOP past 2·watchdog_s + 5 (here 6 s): the world loses the host; resumed, it exits 3 with one line."""
+    port = free_port()
+    sc = scenario(tmp_path, "lockstep", ticks=1_000_000, dt=0.1, watchdog_s=0.5)
+    world = start(["world", str(sc), "--listen", f"tcp/127.0.0.1:{port}", "--mode", "peer", "--run-id", "w2",
+                   "--quiet", "--no-plots", "--out", str(tmp_path / "out")])
+    hosts = [start(["robots", "--connect", f"tcp/127.0.0.1:{port}", "--run-id", "w2", "--mode", "peer",
+                    "--count", "2", "--quiet"]) for _ in range(2)]
+    try:
+        wait_running(tmp_path / "out")
+        os.kill(hosts[0].pid, signal.SIGSTOP)
+        time.sleep(8.0)
+        os.kill(hosts[0].pid, signal.SIGCONT)
+        _, err = hosts[0].communicate(timeout=20)
+        assert hosts[1].poll() is None  # the other host carries on
+    finally:
+        for p in (world, *hosts):
+            if p.poll() is None:
+                p.kill()
+            p.wait(5)
+    lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("warning:")]
+    assert hosts[0].returncode == 3, err
+    assert len(lines) == 1 and lines[0].startswith("error:") and "Traceback" not in err, err
+
+
+def test_check_runs_a_user_behaviour_in_a_host_process(tmp_path):
+    """``swarmactors check --behavior module:Class`` runs the user's behaviour with K = 1 (the world survives it)."""
+    from swarmactors.conformance import case_by_name, is_user_behavior, run_case
+
+    assert is_user_behavior("mutants:FloodBackToSender")
+    assert not is_user_behavior(None) and not is_user_behavior("flooding")
+    fam, case = case_by_name("flooding", "flooding/ring-8")
+    run_case(fam, case, "mutants:FloodBackToSender", tmp_path, determinism=False)
+    result = json.loads((tmp_path / "flooding-ring-8" / "k1" / "result.json").read_text())
+    assert result["processes"] == 1
+    assert {r["host"] for r in result["robots"].values()} == {"h0"}

@@ -652,7 +652,9 @@ class World:
         self.record.event(self.tick, {"host_lost": host, "cause": cause})
         for rid in sorted(entry.robots):
             self.faults.crash(rid, self.tick, cause)
-        self._held.pop(host, None)
+        _, q, _ = self._held.pop(host, (None, None, None))
+        if q is not None:  # a step it had pending is answered: this host is gone (it leaves with one line)
+            q.reply(self._down(host, Stop(self.tick, gone=True)))
         if self.started and self._all_in():
             self._all_stepped.set()
         self._check_reports_in()
