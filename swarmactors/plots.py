@@ -63,9 +63,10 @@ def write_ids(ax, pos: dict[int, tuple], fontsize: float = 6) -> None:
                 path_effects=halo)
 
 
-def swarm_links(result: Result, tick: int, rec: dict | None = None) -> list[tuple[int, int]]:
-    """The links of the swarm at ``tick`` (undirected, as ``Result.graph_at``; ``rec``: that tick's record)."""
-    return list(result.graph_at(tick, rec=rec).edges)
+def swarm_links(result: Result, tick: int, rec: dict | None = None, severed: tuple | None = None
+                ) -> list[tuple[int, int]]:
+    """The links of the swarm at ``tick`` (undirected, as ``Result.graph_at``, which takes ``rec`` and ``severed``)."""
+    return list(result.graph_at(tick, rec=rec, severed=severed).edges)
 
 
 def plot_run(result: Result, path: Path, field: str | None = None, tick: int | None = None,
@@ -84,10 +85,11 @@ def plot_run(result: Result, path: Path, field: str | None = None, tick: int | N
     """
     robots = result.robots
     if result.trace_path is not None:
-        rec = result.last_record() if tick is None else result.record(tick)  # streamed: one record in memory
+        # streamed: one record in memory; the last tick in one pass with the cuts and partitions in force at it
+        rec, severed = result.last_state() if tick is None else (result.record(tick), None)
         t = rec["t"]
         pos = {row[0]: row[1:3] for row in rec.get("pos", [])}
-        edges = swarm_links(result, t, rec)
+        edges = swarm_links(result, t, rec, severed)
     else:
         t = result["ticks"]
         pos = {rid: r["pose"][:2] for rid, r in robots.items() if r["alive"]}

@@ -213,18 +213,22 @@ class Result:
         for rec in self.records():
             if rec["t"] > tick:
                 break
-            for ev in rec.get("ev", ()):
-                if "cut" in ev:
-                    cuts |= {frozenset(p) for p in ev["cut"]}
-                elif "restore" in ev:
-                    cuts -= {frozenset(p) for p in ev["restore"]}
-                elif "partition" in ev:
-                    group = {r: g + 1 for g, members in enumerate(ev["partition"]) for r in members}
-                elif "heal" in ev:
-                    cuts, group = set(), {}
+            cuts, group = _sever(rec, cuts, group)
         return cuts, group
 
-    def graph_at(self, tick: int, directed: bool = False, rec: dict | None = None) -> nx.Graph:
+    def last_state(self) -> tuple[dict, tuple[set[frozenset], dict[int, int]]]:
+        """The last tick record and the cuts and partition groups in force at it, in one streamed pass."""
+        cuts: set[frozenset] = set()
+        group: dict[int, int] = {}
+        last = None
+        for last in self.records():  # noqa: B007 — the loop keeps the last one
+            cuts, group = _sever(last, cuts, group)
+        if last is None:
+            raise KeyError("the trace has no tick")
+        return last, (cuts, group)
+
+    def graph_at(self, tick: int, directed: bool = False, rec: dict | None = None,
+                 severed: tuple[set[frozenset], dict[int, int]] | None = None) -> nx.Graph:
         """The true radio graph at ``tick``.
 
         Alive robots, links in range (mutual unless ``directed``: an edge a -> b when b is within a's range),
@@ -236,8 +240,8 @@ class Result:
         import networkx as nx
         from scipy.spatial import cKDTree
 
-        rec = self.record(tick) if rec is None else rec  # ``rec``: tick's record, when the caller has it
-        cuts, group = self.severed_at(tick)
+        rec = self.record(tick) if rec is None else rec  # ``rec``, ``severed``: when the caller has them
+        cuts, group = self.severed_at(tick) if severed is None else severed
         ranges = self.ranges()
         ids = [row[0] for row in rec.get("pos", [])]
         pos = np.array([row[1:] for row in rec.get("pos", [])], dtype=float)
@@ -283,3 +287,17 @@ class Result:
         from swarmactors.export import frames_frame
 
         return frames_frame(self)
+
+
+def _sever(rec: dict, cuts: set[frozenset], group: dict[int, int]) -> tuple[set[frozenset], dict[int, int]]:
+    """The cuts and partition groups after one tick record's events (``cut``, ``restore``, ``partition``, ``heal``)."""
+    for ev in rec.get("ev", ()):
+        if "cut" in ev:
+            cuts = cuts | {frozenset(p) for p in ev["cut"]}
+        elif "restore" in ev:
+            cuts = cuts - {frozenset(p) for p in ev["restore"]}
+        elif "partition" in ev:
+            group = {r: g + 1 for g, members in enumerate(ev["partition"]) for r in members}
+        elif "heal" in ev:
+            cuts, group = set(), {}
+    return cuts, group

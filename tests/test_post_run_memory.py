@@ -42,6 +42,7 @@ def test_streamed_records_are_the_trace_and_the_last_one_is_the_last_tick(finish
     _, records, _ = read_trace(result.trace_path)
     assert list(result.records()) == records
     assert result.last_record() == records[-1]
+    assert result.last_state() == (records[-1], result.severed_at(records[-1]["t"]))
     assert result.record(17) == records[17]
     assert result.final_graph().edges == Result.load(finished.path).graph_at(records[-1]["t"]).edges
 
