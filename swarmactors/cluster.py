@@ -189,7 +189,7 @@ def run_jobs(client, jobs: list[Job], on_reply: Callable[[Job, Reply], None],
                 else:
                     exc = fut.exception()
                     if isinstance(exc, KilledWorker):
-                        text = f"KilledWorker: every worker that ran it died ({exc})"
+                        text = f"KilledWorker: the workers running it died too often (Dask's allowed-failures): {exc}"
                     else:
                         text = f"{exc.__class__.__name__}: {exc}"
                     reply = Reply(error=text)
