@@ -1,10 +1,11 @@
 """Memory growth per query of a bare zenoh-python get/queryable loop, as the lockstep step path uses it.
 
-Usage: ``python benchmarks/query_memory.py [QUERIES]``. Two sessions in one process (a queryable that
+Usage: ``python benchmarks/query_memory.py [QUERIES [TIMEOUT_S]]``. Two sessions in one process (a queryable that
 answers at once, a querier that sends ``QUERIES`` queries one after another with a callback handler, as
 ``transport.Link.query``); every ``QUERIES / 5`` queries it prints the resident set size (``/proc/self/statm``)
 and what ``tracemalloc`` sees allocated by Python code, so that growth outside Python (in Zenoh's Rust
-runtime) shows as RSS growth with a flat tracemalloc total.
+runtime) shows as RSS growth with a flat tracemalloc total. ``TIMEOUT_S`` is each query's timeout (the lockstep
+step query used 24 h).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ def config(listen: list[str], connect: list[str]) -> zenoh.Config:
     return cfg
 
 
-def main(n: int) -> None:
+def main(n: int, timeout: float = 10.0) -> None:
     tracemalloc.start()
     port = 17000 + os.getpid() % 1000
     server = zenoh.open(config([f"tcp/127.0.0.1:{port}"], []))
@@ -59,7 +60,7 @@ def main(n: int) -> None:
     for i in range(1, n + 1):
         done.clear()
         client.get("bench/up/h0", zenoh.handlers.Callback(on_reply, done.set, indirect=False), payload=payload,
-                   timeout=10.0, target=zenoh.QueryTarget.ALL, consolidation=zenoh.ConsolidationMode.NONE)
+                   timeout=timeout, target=zenoh.QueryTarget.ALL, consolidation=zenoh.ConsolidationMode.NONE)
         done.wait(10.0)
         got.clear()
         if i % max(1, n // 5) == 0:
@@ -75,4 +76,4 @@ def main(n: int) -> None:
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 50_000)
+    main(int(sys.argv[1]) if len(sys.argv) > 1 else 50_000, float(sys.argv[2]) if len(sys.argv) > 2 else 10.0)

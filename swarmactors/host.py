@@ -364,6 +364,8 @@ class RobotHost:
         watch = asyncio.ensure_future(world_gone.wait())
         try:
             await asyncio.wait({clock, watch}, return_when=asyncio.FIRST_COMPLETED)
+            if not clock.done():  # the world's token went: a run that was ending anyway may still finish
+                await asyncio.wait({clock}, timeout=0.5)
         finally:
             watch.cancel()
             if not clock.done():
