@@ -107,13 +107,14 @@ class Context:
     """What a behaviour may see and do. One per robot."""
 
     def __init__(self, robot_id: int, rng: np.random.Generator, clock: str, *, dt: float = 1.0,
-                 radio_range: float = 1.0, sensing_range: float = 1.0):
+                 radio_range: float = 1.0, sensing_range: float = 1.0, kind: str = "ground"):
         self.id = robot_id
         self.rng = rng
         self._clock = clock
         self._dt = float(dt)
         self._range = float(radio_range)
         self._sensing = float(sensing_range)
+        self._kind = kind
         self._map = None  # swarmactors.knownmap.KnownMap, for a robot given the map
         self._rays: tuple[float, ...] | None = None
         self._now: float = 0
@@ -161,6 +162,11 @@ class Context:
     def sensing(self) -> float:
         """This robot's sensing range (its group's ``sensing``)."""
         return self._sensing
+
+    @property
+    def kind(self) -> str:
+        """``"ground"`` or ``"flying"``: its group's ``kind`` (what obstacles stop it; docs/scenarios.md)."""
+        return self._kind
 
     @property
     def map(self):

@@ -63,7 +63,7 @@ class Robot:
     def __init__(self, descr: RobotDescr, run: RunInfo, allow: Collection[str] = ()):
         self.id = descr.id
         self.ctx = Context(self.id, np.random.default_rng([run.seed, self.id]), run.clock, dt=run.dt,
-                           radio_range=descr.range, sensing_range=descr.sensing)
+                           radio_range=descr.range, sensing_range=descr.sensing, kind=descr.kind)
         self.ctx._encode = pack
         self.ctx.pose = np.array(descr.pose, dtype=float)
         if descr.knows_map and run.map is not None:

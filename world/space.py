@@ -165,7 +165,10 @@ class SpaceRules:
         radius = robots.body
         touching: set[tuple] = set(self._overlapping(pos, robots.alive, radius))
         if not self.space.empty:
-            ids = np.flatnonzero(robots.alive & (radius > 0))
+            bodies = robots.alive & (radius > 0)
+            if self.dims == 2:
+                bodies &= robots.ground  # in a 2-D world flying robots pass over every obstacle
+            ids = np.flatnonzero(bodies)
             if ids.size:
                 which = self.space.clearance_overlap(self.points(pos[ids]), radius[ids], robots.ground[ids])
                 touching |= {(int(i), "obstacle", int(k)) for i, k in zip(ids, which, strict=True) if k != -1}

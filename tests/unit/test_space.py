@@ -293,3 +293,18 @@ def test_the_one_who_is_in_range_leaves_out_occluded_links_and_placement_respect
     g.add_edges_from((a, b) for a in range(len(pts)) for b in range(a + 1, len(pts))
                      if np.linalg.norm(pts[a] - pts[b]) <= 2.5 and not oracle.blocks(pts[a], pts[b]))
     assert nx.is_connected(g)
+
+
+def test_in_2d_a_flying_body_over_an_obstacle_is_no_collision_and_ctx_tells_the_kind():
+    """Flying robots pass over obstacles in a 2-D world, so their bodies do not collide with them; a behaviour
+    reads its robot's kind from the context (found missing by the Swarm Relays work).
+    """
+    from swarmactors.behavior import Context
+
+    r = robots([{"pos": [4.5, 5.0], "body_radius": 0.3}, {"pos": [4.5, 5.0], "body_radius": 0.3, "kind": "flying"}],
+               2)
+    rules = SpaceRules(space_from_spec({"dims": 2, "obstacles": [WALL]}), 2, False, False)
+    r.pos[1] = [4.5, 8.0]  # apart from robot 0, both inside the wall's footprint
+    rules.collisions(0, r.pos, r)
+    assert set(rules.open) == {(0, "obstacle", 0)}
+    assert Context(1, np.random.default_rng(0), "lockstep", kind="flying").kind == "flying"
