@@ -296,8 +296,9 @@ def test_the_one_who_is_in_range_leaves_out_occluded_links_and_placement_respect
 
 
 def test_in_2d_a_flying_body_over_an_obstacle_is_no_collision_and_ctx_tells_the_kind():
-    """Flying robots pass over obstacles in a 2-D world, so their bodies do not collide with them; a behaviour
-    reads its robot's kind from the context (found missing by the Swarm Relays work).
+    """Flying robots pass over obstacles in a 2-D world, so their bodies do not collide with them.
+
+    A behaviour reads its robot's kind from the context (found missing by the Swarm Relays work).
     """
     from swarmactors.behavior import Context
 
