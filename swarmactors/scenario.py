@@ -92,6 +92,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "trace": (bool, True, None),
         "trace_compression": (str, "none", _one_of("none", "zstd")),  # trace.msgpack through Zstandard
         "processes": (int, 0, _non_negative),
+        "trace_commands": (bool, False, None),  # tick records carry commanded velocities ("cmd", docs/trace.md)
     },
     "radio": {
         "range": (_NUM, 1.0, _positive),

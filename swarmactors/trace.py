@@ -45,13 +45,13 @@ class TraceError(ValueError):
 
 # Unique sort keys of each list: pos is built in id order and lockstep
 # deliveries in (dst, src, seq) order by the world; the others arrive in host order.
-_KEYS = {"sent": itemgetter(0, 1), "drop": itemgetter(0, 1, 2)}
+_KEYS = {"sent": itemgetter(0, 1), "drop": itemgetter(0, 1, 2), "cmd": itemgetter(0)}
 
 
 def canonical(rec: dict) -> dict:
     """Sort a tick record's lists and maps so that it does not depend on processing order."""
     out = {"t": rec["t"]}
-    for key in ("pos", "sent", "del", "drop"):
+    for key in ("pos", "sent", "del", "drop", "cmd"):
         if rec.get(key):
             out[key] = sorted(rec[key], key=_KEYS[key]) if key in _KEYS else rec[key]
     if rec.get("status"):
@@ -72,7 +72,7 @@ _NUMBER = (int, float)
 
 def record_problem(rec: dict) -> str | None:
     """What is wrong with the shape of a tick record (None: nothing); docs/trace.md is the schema."""
-    rows = {"pos": 3, "sent": 5, "del": 4, "drop": 4}
+    rows = {"pos": 3, "sent": 5, "del": 4, "drop": 4, "cmd": 3}
     for key, width in rows.items():
         value = rec.get(key, [])
         if not isinstance(value, list):

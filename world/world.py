@@ -109,6 +109,7 @@ class World:
         self.watchdog_s = float(run.get("watchdog_s", 10.0))
         self.join_timeout_s = float(run.get("join_timeout_s", 60.0))
         self.state_every = int(run.get("state_every", 1))
+        self.trace_commands = bool(run.get("trace_commands", False))  # "cmd" rows: velocities before the cap
         wspec = spec.get("world", {})
         self.dims = int(wspec.get("dims", 2))
         b = wspec.get("bounds")
@@ -525,6 +526,9 @@ class World:
             self.faults.crash(rid, self.tick, cause, error)
         for rid, v in got.velocities:
             self.robots.vel[rid] = self.situated.velocity(rid, v)
+            if self.trace_commands:  # as commanded, in the world's frame, before the speed cap
+                cmd = np.round(self.robots.vel[rid], POS_DIGITS).tolist()
+                self.record.rec.setdefault("cmd", []).append([int(rid), *cmd])
         for rid, changes in got.statuses:
             self.robots.status[rid].update(changes)
             self.record.status(rid, changes)
