@@ -1,5 +1,8 @@
-"""Leader-follower navigation (issue 20, Sano et al.): bad input, the commanded-velocity trace, §5.1, random
-configurations, determinism across host processes, the §5.2 case in realtime."""
+"""Leader-follower navigation (issue 20, Sano et al.).
+
+Bad input, the commanded-velocity trace, §5.1, random configurations, determinism across host processes,
+the §5.2 case in realtime.
+"""
 
 from __future__ import annotations
 
@@ -108,8 +111,11 @@ def test_same_trace_hash_with_1_and_3_host_processes(tmp_path):
 
 @pytest.mark.slow
 def test_30_random_configurations(tmp_path):
-    """Random Assumption-1 starts and meanders: where the assumptions held, no collision, a spanning tree,
-    speeds within U_i. The share of runs where an assumption broke is printed, not hidden."""
+    """Random Assumption-1 starts and meanders: the guarantees where the assumptions held.
+
+    No collision, a spanning tree, speeds within U_i. The share of runs where an assumption broke is
+    printed, not hidden.
+    """
     broken = 0
     for seed in range(30):
         sc = suite.random_scenario(5, seed, duration=8.0, dt=0.05)

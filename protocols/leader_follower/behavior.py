@@ -190,7 +190,7 @@ class Follower(Behavior):
         return min(others, key=lambda i: (dist[i], i)) if others else None
 
     def _reset_sigma(self, vec, dist) -> None:
-        """t = t_i: σ = σ^des = n^r = n^l = 0, then R^1/L^1 from the side of the nearest other agent."""
+        """T = t_i: σ = σ^des = n^r = n^l = 0, then R^1/L^1 from the side of the nearest other agent."""
         self.sigma = self.theta = 0.0
         self.events = 0
         k = self._nearest_other(vec, dist)

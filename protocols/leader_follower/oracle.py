@@ -209,7 +209,7 @@ def spanning_tree(result: Result, where_assumed: bool = True, require_all: bool 
             bad += 1
             first = first if first is not None else (t, wrong)
     missing = [i for i in run.followers if run.target and i not in run.target[-1]] if require_all else []
-    ok = bad == 0 and not missing and last >= 0
+    ok = bad == 0 and not missing
     detail = (f"{bad} tick(s) without a tree" + (f"; first at tick {first[0]}: {first[1]}" if first else "")
               + (f"; followers without a target at the end: {missing}" if missing else "") + why)
     return Outcome("leader_follower.spanning_tree", ok, bad, 0, detail, first[0] if first else None, op="<=")
@@ -249,7 +249,7 @@ def target_distance(result: Result, where_assumed: bool = True) -> Outcome:
                                 f"({a.rho3}, {a.rho})")
     detail = (f"worst margin {worst:.4f}" if worst < math.inf else "no follower had a target") + (
         f"; first breach at tick {first[0]}: {first[1]}" if first else "") + why
-    return Outcome("leader_follower.target_distance", bad == 0 and last >= 0, bad, 0, detail,
+    return Outcome("leader_follower.target_distance", bad == 0, bad, 0, detail,
                    first[0] if first else None, op="<=")
 
 
@@ -270,8 +270,9 @@ def speed(result: Result, where_assumed: bool = True) -> Outcome:
         if u > a.U + EPS:
             bad += 1
             first = first or (t, f"robot {rid} commanded {u:.6f} > U {a.U}")
-    detail = f"largest follower ‖u_i‖/U_i {top:.4f}" + (f"; first at tick {first[0]}: {first[1]}" if first else "") + why
-    return Outcome("leader_follower.speed", bad == 0 and last >= 0, bad, 0, detail, first[0] if first else None,
+    detail = (f"largest follower ‖u_i‖/U_i {top:.4f}" + (f"; first at tick {first[0]}: {first[1]}" if first else "")
+              + why)
+    return Outcome("leader_follower.speed", bad == 0, bad, 0, detail, first[0] if first else None,
                    op="<=")
 
 
