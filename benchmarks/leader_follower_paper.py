@@ -89,8 +89,9 @@ def plot(r, stem: str, title: str) -> Path:
     for rid in sorted(ru.agents):
         xs = [p[rid][0] for p in ru.pos if rid in p]
         ys = [p[rid][1] for p in ru.pos if rid in p]
-        ax.plot(xs, ys, lw=0.8, label="L" if rid == ru.leader else f"F{rid}")
-        ax.plot(xs[:1], ys[:1], "o", ms=4, color=ax.lines[-1].get_color())
+        color = plt.cm.tab20(rid % 20)
+        ax.plot(xs, ys, lw=0.8, color=color, label="L" if rid == ru.leader else f"F{rid}")
+        ax.plot(xs[:1], ys[:1], "o", ms=4, color=color)
     ax.set_aspect("equal")
     ax.set_title("(a) paths (circles: start)")
     ax.legend(fontsize=6, ncol=2)
@@ -99,7 +100,7 @@ def plot(r, stem: str, title: str) -> Path:
               ("sigma", "(f) σ")]
     for (key, name), ax in zip(panels, [axes[0][1], axes[0][2], axes[1][0], axes[1][1], axes[1][2]], strict=True):
         for i, d in s.items():
-            ax.plot(d["t"], d[key], lw=0.7, label=f"F{i}")
+            ax.plot(d["t"], d[key], lw=0.7, color=plt.cm.tab20(i % 20), label=f"F{i}")
         if key in ("others_rho2", "others_size"):
             ax.axhline(0.0, color="k", lw=0.6)
         ax.set_title(name)

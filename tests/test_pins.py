@@ -29,6 +29,8 @@ SCENARIO_PINS = {
     "cbaa.toml": "da5540292cc58ef9571fac36f37345e6",
     "flooding.toml": "0e3ad8f9bd65636fa622d3e3bbc9e90f",
     "lambda2.toml": "a4c95f6c6a3b3fce0b233ecc21cb8ea8",  # issue 17
+    "leader-follower-experiment.toml": "e703cfb26febea7a2012d5627700558e",  # issue 20
+    "leader-follower.toml": "424c80217845bb0ce2d9e48db7d91b29",  # issue 20
     "ground-and-flying.toml": "1a475b9f3bfbd6a2db826bd055a835b2",  # issue 14
     "maze-flood.toml": "1f0ccd0251fecf9d90283cb287b8349a",  # issue 14
     "roles-aat.toml": "84e75f28cd9855bc0ecee67eb2b85352",
@@ -56,6 +58,8 @@ CASE_PINS = {
     "lambda2/rgg-10-s1": "0aad851e2878c9d0f98a0412066df846",  # issue 17
     "lambda2/two-rings-6": "2477edfa3dd826279e67bd4f85cf15be",  # issue 17
     "lambda2/rgg-10-s2-loss-0.1": "b271c1c74ea8329aeea0672351dcba69",  # issue 17
+    "leader_follower/random-4-s1": "d1463a6987c7c1a1493ac465754a2106",  # issue 20
+    "leader_follower/random-6-s6-noise-0.005": "8e6a5c2216126395948eaa3657f4aee2",  # issue 20
     "roles/patrol-10-s1": "6f80659879f356e28b7a34146d416650",
     "roles/patrol-20-s3": "ba7d21f9e85a205e5efff2c25361f9c4",
     "roles/patrol-10-s2-loss-0.1": "e29a4156897d3edea8964f84bc4e851b",
