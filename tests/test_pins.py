@@ -31,6 +31,7 @@ SCENARIO_PINS = {
     "lambda2.toml": "a4c95f6c6a3b3fce0b233ecc21cb8ea8",  # issue 17
     "leader-follower-experiment.toml": "e703cfb26febea7a2012d5627700558e",  # issue 20
     "leader-follower.toml": "424c80217845bb0ce2d9e48db7d91b29",  # issue 20
+    "leader-follower-prior.toml": "4d9a73aa5c15d1035943ac02c7c4da29",  # issue 20
     "ground-and-flying.toml": "1a475b9f3bfbd6a2db826bd055a835b2",  # issue 14
     "maze-flood.toml": "1f0ccd0251fecf9d90283cb287b8349a",  # issue 14
     "roles-aat.toml": "84e75f28cd9855bc0ecee67eb2b85352",
