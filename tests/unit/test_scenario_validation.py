@@ -65,7 +65,7 @@ RUN = {
     "name": (STRING, "run"), "seed": (INTEGER, 0), "clock": (STRING, "lockstep"), "ticks": (INTEGER, None),
     "duration": (NUMBER, None), "dt": (NUMBER, 1.0), "watchdog_s": (NUMBER, 10.0), "join_timeout_s": (NUMBER, 60.0),
     "state_every": (INTEGER, 1), "trace": (BOOLEAN, True), "processes": (INTEGER, 0),
-    "trace_compression": (STRING, "none"),
+    "trace_compression": (STRING, "none"), "trace_commands": (BOOLEAN, False),  # issue 20
 }
 RADIO = {
     "range": (NUMBER, 1.0), "latency": (INTEGER, 1), "latency_s": (NUMBER, 0.01), "latency_min_s": (NUMBER, None),
