@@ -89,6 +89,16 @@ def test_experiment_follows_the_leader_and_passes_every_check(tmp_path):
     assert r["metrics"]["leader_follower"]["undetermined"] == 0
 
 
+def test_experiment_under_local_sensing(tmp_path):
+    """Followers sensing (id, range, bearing) in their own frames, turned from the world's: same guarantees."""
+    sc = suite.experiment(duration=30.0)
+    for g in sc["robots"][1:]:
+        g["sensing_frame"] = "local"
+    r = run(sc, out=tmp_path)
+    assert all(_passed(r).values()), r.checks
+    assert r["metrics"]["leader_follower"]["undetermined"] == 0
+
+
 # ------------------------------------------------------------------ §5.1 (slow: 10⁴ ticks per method)
 @pytest.mark.slow
 def test_simulation_51_proposed_passes_and_prior_collides(tmp_path):

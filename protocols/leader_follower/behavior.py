@@ -2,7 +2,9 @@
 
 A sensing-only protocol: no frame is sent. Each follower uses only the vectors it senses to the closest
 point of the other bodies within its sensing range ρ_i (Eqs. 4–5: the group's ``sensing_to = "surface"``),
-told apart by their ids (the paper's AR markers).
+told apart by their ids (the paper's AR markers). Global sensing: the vector is the sensed point minus the
+follower's own position; local sensing: the body-frame vector turned by the odometry heading into the
+robot's own frame, where its commands are given.
 
 * Leader (``Leader``): moves along ``waypoints`` at speed ``U`` ≤ min U_i (Assumption 2, Eq. 8), from
   ``start`` seconds on; it senses nothing.
@@ -104,7 +106,7 @@ class Follower(Behavior):
     """A follower: target determination, tracking mode, switching-target mode, σ rule (Eqs. 9–24)."""
 
     name = NAME
-    frames = ("global",)
+    frames = ("global", "local")  # only relative vectors are used; local: in the body frame, as ctx.move
     plot_field = "target"
 
     def __init__(self, rho1: float, rho2: float, rho3: float, U: float, alpha: float = -1.0, beta: float = 1.0,
@@ -159,8 +161,13 @@ class Follower(Behavior):
 
     # ------------------------------------------------------------------ per tick
     def on_tick(self, ctx, sensed) -> None:
-        me = ctx.position
-        vec = {s.id: (float(s.pos[0] - me[0]), float(s.pos[1] - me[1])) for s in sensed if s.id != ctx.id}
+        if ctx.sensing_frame == "local":  # body-frame vectors turned into the robot's own frame (ctx.move's)
+            c, s_ = math.cos(float(ctx.pose[-1])), math.sin(float(ctx.pose[-1]))
+            vec = {s.id: (c * float(s.pos[0]) - s_ * float(s.pos[1]), s_ * float(s.pos[0]) + c * float(s.pos[1]))
+                   for s in sensed if s.id != ctx.id}
+        else:
+            me = ctx.position
+            vec = {s.id: (float(s.pos[0] - me[0]), float(s.pos[1] - me[1])) for s in sensed if s.id != ctx.id}
         dist = {i: math.hypot(*v) for i, v in vec.items()}
         if self.target is None:
             self._determine(ctx, vec, dist)
