@@ -1,0 +1,301 @@
+"""Robot side of the Robot Navigation Controller (Panerati et al., ICRA 2018, §III-B); imports no oracle.
+
+SECS prominences, rendez-vous and flocking.
+
+Every robot, every tick, broadcasts two messages:
+
+- ``SECS_T`` {"a": arm, "T": ∠T (its arm's direction in its own frame, or null), "al": aligned, "d": its
+  estimated distance to the master along the swarm, "v": its velocity in its own frame, and, relayed from the
+  master, "p" (arm probabilities), "rv" (rendez-vous δ) and "fl" (flocking)}; the master's "T" is the list
+  of its tasks' directions, one per arm.
+- ``SECS_M`` {"M": [[i, ∠M_ji], ...]}: the bearing, in its own frame, at which it sees each neighbour i (one
+  frame for all neighbours; each i reads its own entry).
+
+A receiver i takes ∠O_ij from ``frame.rab`` (send-tick positions, as j measured ∠M_ji) turned into its own
+frame by its heading at the send tick, and composes ∠T_i = ∠T_j + ∠O_ij − ∠M_ji + π (rules.compose_target).
+"Own frame" is the frame of ``ctx.pose``: fixed for a robot, turned from the world's by its unknown offset.
+Angles on the wire must be finite and in [0, 2π); a frame with any other value is refused and counted.
+"""
+
+from __future__ import annotations
+
+import math
+
+from protocols.secs import rules
+from swarmactors import Behavior
+
+T_KIND = "SECS_T"
+M_KIND = "SECS_M"
+STALE = 5  # ticks after which a neighbour's last message is not used
+CLOSE = 0.4  # m: a circling robot also feels the Lennard-Jones push of robots closer than this
+
+
+def _finite(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def parse_t(body) -> tuple[dict | None, str | None]:
+    """A SECS_T body, validated: (body, None) or (None, reason); reason "angle" for a bad angle."""
+    if not isinstance(body, dict) or not isinstance(body.get("a"), int):
+        return None, "malformed"
+    t = body.get("T")
+    if body["a"] < 0:
+        if not isinstance(t, list) or not all(rules.angle_ok(x) for x in t):
+            return None, "angle" if isinstance(t, list) else "malformed"
+    elif t is not None and not rules.angle_ok(t):
+        return None, "angle"
+    d = body.get("d")
+    if d is not None and not (_finite(d) and d >= 0):
+        return None, "malformed"
+    v = body.get("v", [0.0, 0.0])
+    if not (isinstance(v, list) and len(v) == 2 and all(_finite(x) for x in v)):
+        return None, "malformed"
+    p = body.get("p")
+    if p is not None and not (isinstance(p, list) and all(_finite(x) and 0 <= x <= 1 for x in p)):
+        return None, "malformed"
+    rv = body.get("rv")
+    if rv is not None and not (_finite(rv) and rv > 0):
+        return None, "malformed"
+    return body, None
+
+
+def parse_m(body, me: int) -> tuple[float | None, str | None]:
+    """This robot's ∠M_ji from a SECS_M body: (angle or None when absent, None) or (None, reason)."""
+    if not isinstance(body, dict) or not isinstance(body.get("M"), list):
+        return None, "malformed"
+    for pair in body["M"]:
+        if not (isinstance(pair, list) and len(pair) == 2 and isinstance(pair[0], int)):
+            return None, "malformed"
+        if pair[0] == me:
+            return (pair[1], None) if rules.angle_ok(pair[1]) else (None, "angle")
+    return None, None
+
+
+class SECS(Behavior):
+    """Master (id ``master``) and backbone robots of the RNC.
+
+    The master stays put (or leads a flock) and tells its neighbours the direction of each task (the world
+    objects named ``task*`` it knows, in its own frame; it needs global sensing to know them). Backbone robots
+    draw an arm, spiral round their informer until aligned with ∠T_i, then follow the Lennard-Jones forces
+    (δ, ε) of all their neighbours; a robot with no informer of its arm keeps close with δ_close. After
+    ``rendezvous_at`` seconds the master floods a smaller δ and every robot moves by Lennard-Jones only;
+    after ``flock_at`` seconds it leads the flock (Eq. 3) towards ``flock_to``.
+    """
+
+    name = "secs"
+    kinds = (T_KIND, M_KIND)
+    frames = ("global", "local")
+    plot_field = "arm"
+
+    def __init__(self, master: int = 0, delta: float = 240.0, epsilon: float = 1e6, delta_close: float = 120.0,
+                 v_max: float = 0.15, align_tol: float = 0.0314, rendezvous_at: float | None = None,
+                 delta_rv: float = 90.0, flock_at: float | None = None, flock_to: list | None = None,
+                 flock_speed: float = 0.05, task_prefix: str = "task"):
+        self.master, self.delta, self.epsilon, self.delta_close = master, delta, epsilon, delta_close
+        self.v_max, self.align_tol = v_max, align_tol
+        self.rendezvous_at, self.delta_rv = rendezvous_at, delta_rv
+        self.flock_at, self.flock_to, self.flock_speed = flock_at, flock_to, flock_speed
+        self.task_prefix = task_prefix
+        self.heads: dict[int, float] = {}
+        self.info: dict[int, tuple[int, dict]] = {}  # j -> (sent tick, SECS_T body)
+        self.seen_by: dict[int, tuple[int, float, float]] = {}  # j -> (sent tick, ∠M_ji, ∠O_ij)
+        self.arm: int | None = None
+        self.probs: list | None = None
+        self.target: float | None = None
+        self.aligned = False
+        self.informer: int | None = None
+        self.dist = math.inf
+        self.mode = "secs"
+        self.rv: float | None = None
+        self.v = (0.0, 0.0)
+        self.refused: dict[str, int] = {}
+        self.radius = 1.0
+        self.first_aligned: int | None = None
+        self.realigned = 0
+        self.odo: list | None = None
+        self.at: int | None = None
+
+    @staticmethod
+    def validate(params: dict) -> str | None:
+        for key in ("delta", "delta_close", "delta_rv", "epsilon", "v_max", "align_tol"):
+            if key in params and not (_finite(params[key]) and params[key] > 0):
+                return f"{key} must be a positive number, got {params[key]!r}"
+        ft = params.get("flock_to")
+        if ft is not None and not (isinstance(ft, list) and len(ft) == 2 and all(_finite(x) for x in ft)):
+            return f"flock_to must be [x, y], got {ft!r}"
+        return None
+
+    # ----------------------------------------------------------------------------------------------- hooks
+    def on_start(self, ctx) -> None:
+        far = self._far()
+        self.radius = float(ctx.rng.uniform(0.5, 1.0)) * far  # the spiral's randomised radius
+        if ctx.id == self.master:
+            self.dist = 0.0
+            self.arm = -1
+
+    def _far(self) -> float:
+        return min(1.2 * self.delta / 100.0, 2.5)
+
+    def _tick_of(self, ctx, sent: float) -> int:
+        return int(sent) if ctx.clock == "lockstep" else int(round(sent / ctx.dt))
+
+    def on_frame(self, ctx, frame) -> None:
+        sent = self._tick_of(ctx, frame.sent)
+        if frame.kind == T_KIND:
+            body, bad = parse_t(frame.body)
+            if bad:
+                self.refused[bad] = self.refused.get(bad, 0) + 1
+                return
+            self.info[frame.src] = (sent, body)
+            return
+        m, bad = parse_m(frame.body, ctx.id)
+        if bad:
+            self.refused[bad] = self.refused.get(bad, 0) + 1
+            return
+        if m is None or frame.rab is None:
+            return
+        head = self.heads.get(sent, ctx.pose[-1])
+        self.seen_by[frame.src] = (sent, m, rules.wrap(head + frame.rab[1]))
+
+    def _neighbours(self, ctx, sensed) -> dict[int, tuple[float, float]]:
+        """{id: (distance, bearing in the own frame)} of the sensed robots."""
+        out = {}
+        if ctx.sensing_frame == "local":
+            h = float(ctx.pose[-1])
+            for s in sensed:
+                out[s.id] = (float(s.range), rules.wrap(h + float(s.bearing)))
+        else:
+            x, y = float(ctx.position[0]), float(ctx.position[1])
+            for s in sensed:
+                dx, dy = float(s.pos[0]) - x, float(s.pos[1]) - y
+                out[s.id] = (math.hypot(dx, dy), rules.wrap(math.atan2(dy, dx)))
+        return out
+
+    def _fresh(self, ctx, j: int) -> dict | None:
+        got = self.info.get(j)
+        return got[1] if got and ctx.tick - got[0] <= STALE else None
+
+    def on_tick(self, ctx, sensed) -> None:
+        tick = ctx.tick
+        self.heads[tick] = float(ctx.pose[-1])
+        self.heads.pop(tick - 2 * STALE, None)
+        nb = self._neighbours(ctx, sensed)
+        body = self._master_tick(ctx, nb) if ctx.id == self.master else self._backbone_tick(ctx, nb)
+        ctx.move(list(self.v))
+        body["v"] = [round(self.v[0], 6), round(self.v[1], 6)]
+        ctx.broadcast(T_KIND, body)
+        ctx.broadcast(M_KIND, {"M": [[j, nb[j][1]] for j in sorted(nb)]})
+        self.odo, self.at = [float(c) for c in ctx.position[:2]], tick
+        ctx.set_status(arm=self.arm, aligned=self.aligned, mode=self.mode)
+
+    def _master_tick(self, ctx, nb) -> dict:
+        now = ctx.tick * ctx.dt
+        x, y = float(ctx.position[0]), float(ctx.position[1])
+        tasks = sorted((k, v) for k, v in ctx.objects.items() if k.startswith(self.task_prefix))
+        angles = [rules.wrap(math.atan2(p[1] - y, p[0] - x)) for _, p in tasks]
+        self.probs = rules.arm_probabilities([math.hypot(p[0] - x, p[1] - y) for _, p in tasks])
+        body = {"a": -1, "T": angles, "al": True, "d": 0.0, "p": self.probs}
+        if self.rendezvous_at is not None and now >= self.rendezvous_at:
+            self.mode, self.rv = "rendezvous", self.delta_rv
+            body["rv"] = self.delta_rv
+        self.v = (0.0, 0.0)  # the master stays in the swarm
+        if self.flock_at is not None and now >= self.flock_at and self.mode != "rendezvous":
+            self.mode = "flocking"
+            body["fl"] = 1
+            if self.flock_to is not None:
+                dx, dy = self.flock_to[0] - x, self.flock_to[1] - y
+                if math.hypot(dx, dy) > 0.05:
+                    self.v = rules.clip((dx * 10, dy * 10), self.flock_speed)
+        return body
+
+    def _backbone_tick(self, ctx, nb) -> dict:
+        fresh = {j: b for j in nb if (b := self._fresh(ctx, j)) is not None}
+        ds = [b["d"] + nb[j][0] for j, b in fresh.items() if b.get("d") is not None]
+        self.dist = min(ds, default=math.inf)
+        for b in fresh.values():
+            if b.get("p") and self.probs is None:
+                self.probs = list(b["p"])
+                self.arm = rules.draw_arm(self.probs, float(ctx.rng.random()))
+            if b.get("rv") is not None:
+                self.mode, self.rv = "rendezvous", float(b["rv"])
+            elif b.get("fl") and self.mode == "secs":
+                self.mode = "flocking"
+        body = {"a": self.arm if self.arm is not None else 0,
+                "T": None, "al": False, "d": None if math.isinf(self.dist) else round(self.dist, 6)}
+        if self.probs is not None:
+            body["p"] = self.probs
+        if self.mode == "rendezvous":
+            body["rv"] = self.rv
+            self.target, self.aligned = None, False
+            self.v = rules.lj_velocity(list(nb.values()), self.rv, self.v_max, self.epsilon)
+            return body
+        if self.mode == "flocking":
+            body["fl"] = 1
+            self.target, self.aligned = None, False
+            self.v = rules.flocking_velocity(self._flock_inputs(nb, fresh), self.v_max)
+            return body
+        self._secs(ctx, nb, fresh)
+        if self.target is not None:
+            body["T"], body["al"] = self.target, self.aligned
+        return body
+
+    def _flock_inputs(self, nb, fresh) -> list:
+        out = []
+        for j, (d, b) in nb.items():
+            v = fresh.get(j, {}).get("v", [0.0, 0.0])
+            seen = self.seen_by.get(j)
+            if seen is None:
+                out.append((d, b, (0.0, 0.0)))
+                continue
+            rot = rules.rotation(seen[2], seen[1])
+            c, s = math.cos(rot), math.sin(rot)
+            out.append((d, b, (c * v[0] - s * v[1], s * v[0] + c * v[1])))
+        return out
+
+    def _secs(self, ctx, nb, fresh) -> None:
+        """Pick the informer, compose ∠T_i, spiral or follow Lennard-Jones."""
+        arm = self.arm
+        sees_master = self.master in fresh and arm is not None and arm < len(fresh[self.master]["T"])
+        cands = [(j, b["d"]) for j, b in fresh.items()
+                 if j != self.master and b["a"] == arm and b.get("T") is not None and b.get("d") is not None]
+        informer = rules.pick_informer(sees_master, cands, self.dist) if arm is not None else None
+        j = self.master if informer == -1 else informer
+        seen = self.seen_by.get(j) if j is not None else None
+        if j is None or seen is None or ctx.tick - seen[0] > STALE:
+            self.informer, self.target, self.aligned = None, None, False
+            self.v = rules.lj_velocity(list(nb.values()), self.delta_close, self.v_max, self.epsilon)
+            return
+        sent_t, b = self.info[j]
+        t_j = b["T"][arm] if j == self.master else b["T"]
+        _, m_ji, o_ij = seen
+        self.informer = j
+        self.target = rules.compose_target(t_j, o_ij, m_ji)
+        offset = rules.diff(m_ji, t_j)
+        was = self.aligned
+        # hysteresis: aligned within align_tol, lost beyond twice that
+        self.aligned = abs(offset) < self.align_tol * (2.0 if was else 1.0)
+        if self.aligned:
+            if self.first_aligned is None:
+                self.first_aligned = ctx.tick
+            self.v = rules.lj_velocity(list(nb.values()), self.delta, self.v_max, self.epsilon)
+        else:
+            self.realigned += bool(was)
+            d_now, o_now = nb[j]
+            v = rules.spiral_velocity(o_now, d_now, offset, self.radius, self.v_max, far=self._far())
+            close = [nb[k] for k in nb if nb[k][0] < CLOSE]
+            if close:  # keep the bodies apart while circling: the short-range part of Lennard-Jones
+                w = rules.lj_velocity(close, self.delta, self.v_max, self.epsilon)
+                v = rules.clip((v[0] + w[0], v[1] + w[1]), self.v_max)
+            self.v = v
+
+    def report(self) -> dict:
+        return {"arm": self.arm, "target": self.target, "aligned": self.aligned, "informer": self.informer,
+                "dist": None if math.isinf(self.dist) else self.dist, "mode": self.mode, "odo": self.odo,
+                "at": self.at, "first_aligned": self.first_aligned, "lost_alignment": self.realigned,
+                "refused": dict(self.refused), "master": self.master}
+
+    @classmethod
+    def metrics(cls, reports) -> dict:
+        return {"aligned": sum(bool(r.get("aligned")) for r in reports.values()),
+                "refused": sum(sum(r.get("refused", {}).values()) for r in reports.values()),
+                "arms": sorted({r["arm"] for r in reports.values() if r.get("arm") is not None and r["arm"] >= 0})}

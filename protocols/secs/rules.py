@@ -1,0 +1,173 @@
+"""Pure rules of the Robot Navigation Controller (Panerati et al., ICRA 2018, §III-B): no I/O, no oracle.
+
+Angles are radians, counter-clockwise, in a robot's own frame; distances in metres except the Lennard-Jones
+parameters, which are the paper's centimetres (δ ∈ {90, 120, 240, 275} cm, ε = 10⁶). docs/protocols/secs.md
+gives every reading of a garbled formula and every value the paper leaves unstated.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+TWO_PI = 2.0 * math.pi
+
+
+def wrap(a: float) -> float:
+    """``a`` mod 2π, in [0, 2π)."""
+    r = math.fmod(a, TWO_PI)
+    if r < 0:
+        r += TWO_PI
+    return 0.0 if r >= TWO_PI else r
+
+
+def diff(a: float, b: float) -> float:
+    """The signed difference a − b, in (−π, π]."""
+    d = wrap(a - b)
+    return d - TWO_PI if d > math.pi else d
+
+
+def compose_target(t_j: float, o_ij: float, m_ji: float) -> float:
+    """§III-B-5a, corrected: ∠T_i = ∠T_j + ∠O_ij − ∠M_ji + π (mod 2π).
+
+    j sees i at ∠M_ji in j's frame; i sees j at ∠O_ij in i's frame. The two bearings are opposite directions
+    of the same segment, so j's frame is turned from i's by ρ = ∠O_ij − ∠M_ji + π, and any direction of j's
+    frame (here ∠T_j) is ∠T_j + ρ in i's. The printed ∠M_ji − ∠O_ij + ∠T_j has the sign of ρ reversed and
+    no π; the authors' Buzz code computes the form used here.
+    """
+    return wrap(t_j + o_ij - m_ji + math.pi)
+
+
+def rotation(o_ij: float, m_ji: float) -> float:
+    """The angle that turns a direction of j's frame into i's: ∠O_ij − ∠M_ji + π."""
+    return wrap(o_ij - m_ji + math.pi)
+
+
+def angle_ok(a) -> bool:
+    """An angle on the wire: a finite real number in [0, 2π)."""
+    return isinstance(a, (int, float)) and not isinstance(a, bool) and math.isfinite(a) and 0.0 <= a < TWO_PI
+
+
+# --------------------------------------------------------------------------------------------- Lennard-Jones
+def lj_repulsion(d_cm: float, delta: float, epsilon: float = 1e6) -> float:
+    """Eq. 2 as read here: F(d) = (ε/d)·((δ/d)⁴ − (δ/d)²), positive = repulsive, zero at d = δ.
+
+    The exponents 4 and 2 are §IV's; this is the magnitude of the authors' Buzz ``lj_magnitude`` with its sign
+    turned so that positive pushes away.
+    """
+    r = delta / d_cm
+    return (epsilon / d_cm) * (r**4 - r**2)
+
+
+def clip(v: Sequence[float], vmax: float) -> tuple[float, float]:
+    """``v`` scaled down to length ``vmax`` when longer (direction kept)."""
+    n = math.hypot(v[0], v[1])
+    if n > vmax and n > 0:
+        return v[0] * vmax / n, v[1] * vmax / n
+    return float(v[0]), float(v[1])
+
+
+def lj_velocity(neighbours: Sequence[tuple[float, float]], delta: float, vmax: float,
+                epsilon: float = 1e6) -> tuple[float, float]:
+    """The Lennard-Jones velocity of a robot from its neighbours' (distance m, bearing) in its own frame.
+
+    Fixed normalisation, the same in every experiment: the mean over the neighbours of F(d)·(away from j),
+    read as cm/s (the unit of Buzz's ``goto``) and so divided by 100 into m/s, then clipped to ``vmax``
+    with its direction kept (the wheels' cap). With ε = 10⁶ the slope at δ = 240 cm is 2ε/δ² ≈ 35 (cm/s)/cm:
+    a robot 0.5 cm off its minimum already asks for the full 15 cm/s, so the clip is what shapes the motion.
+    """
+    if not neighbours:
+        return 0.0, 0.0
+    sx = sy = 0.0
+    for d, b in neighbours:
+        f = lj_repulsion(max(d, 1e-3) * 100.0, delta, epsilon)
+        sx -= f * math.cos(b)
+        sy -= f * math.sin(b)
+    n = len(neighbours)
+    return clip((sx / n / 100.0, sy / n / 100.0), vmax)
+
+
+# --------------------------------------------------------------------------------------------------- flocking
+def flocking_velocity(neighbours: Sequence[tuple[float, float, tuple[float, float]]], vmax: float, *,
+                      e: float = 0.3, f: float = 1.0, g: float = 1.5, q: float = 0.6) -> tuple[float, float]:
+    """Eq. 3 as read here: v_i = mean_j [ e·x_ij + f·v_j − g·𝟙(d_ij < q)·(q − d_ij)·x̂_ij ], clipped to vmax.
+
+    ``neighbours``: (distance, bearing, v_j) with v_j already turned into this robot's frame. x_ij is j's
+    position relative to i (there is no common frame for absolute ones); the separation is a spring that
+    pushes i away from j inside q (the printed d_ij·x_ij grows with distance and could not separate).
+    Coefficients e (1/s), f, g (1/s) and q (m) are unstated in the paper: the values chosen here.
+    """
+    if not neighbours:
+        return 0.0, 0.0
+    sx = sy = 0.0
+    for d, b, (vx, vy) in neighbours:
+        cx, cy = math.cos(b), math.sin(b)
+        sx += e * d * cx + f * vx
+        sy += e * d * cy + f * vy
+        if d < q:
+            sx -= g * (q - d) * cx
+            sy -= g * (q - d) * cy
+    n = len(neighbours)
+    return clip((sx / n, sy / n), vmax)
+
+
+# ------------------------------------------------------------------------------------------------------- SECS
+def spiral_velocity(o_ij: float, d_ij: float, offset: float, radius: float, vmax: float, *,
+                    far: float, near: float = 0.25) -> tuple[float, float]:
+    """The alignment manoeuvre (§III-B-5b): circle the informer j towards the arm, at a randomised radius.
+
+    ``o_ij``: bearing of j in i's frame; ``offset`` = ∠M_ji − ∠T_j (where j sees i, less the arm's direction
+    in j's frame). Beyond ``far`` the robot approaches j, within ``near`` it backs off (the Buzz code's
+    thresholds); otherwise it moves tangentially, counter-clockwise round j when the offset is negative
+    (so that ∠M_ji grows towards ∠T_j), with a radial term that keeps it at least ``radius``
+    from j (a robot pushed farther out stays there, as the Buzz code's purely tangential turn does).
+    """
+    if d_ij > far:
+        return vmax * math.cos(o_ij), vmax * math.sin(o_ij)
+    if d_ij < near:
+        return -vmax * math.cos(o_ij), -vmax * math.sin(o_ij)
+    tangent = o_ij - math.pi / 2 if offset < 0 else o_ij + math.pi / 2
+    radial = min(0.0, (d_ij - radius) / radius)  # < 0: inside its radius, move away from j (never pulled in)
+    vx = math.cos(tangent) + radial * math.cos(o_ij)
+    vy = math.sin(tangent) + radial * math.sin(o_ij)
+    n = math.hypot(vx, vy)
+    return vmax * vx / n, vmax * vy / n
+
+
+def arm_probabilities(distances: Sequence[float]) -> list[float]:
+    """Probability that a backbone robot joins each task's arm: proportional to the task's distance.
+
+    The distance is from the swarm centre (the master): a farther task needs a longer arm, and an arm's reach
+    grows with its robots (Table I).
+    """
+    total = float(sum(distances))
+    if not distances:
+        return []
+    if total <= 0:
+        return [1.0 / len(distances)] * len(distances)
+    return [d / total for d in distances]
+
+
+def draw_arm(probabilities: Sequence[float], u: float) -> int:
+    """The arm whose cumulative probability first exceeds ``u`` ∈ [0, 1)."""
+    acc = 0.0
+    for k, p in enumerate(probabilities):
+        acc += p
+        if u < acc:
+            return k
+    return len(probabilities) - 1
+
+
+def pick_informer(sees_master: bool, candidates: Sequence[tuple[int, float]], own: float) -> int | None:
+    """Whom to align with: -1 (the master) when in sight, else a neighbour of the same arm.
+
+    Among the (id, distance to the centre) candidates nearer the centre than this robot, the farthest from it
+    (the Buzz code's gradient rule); None when there is none.
+    """
+    if sees_master:
+        return -1
+    best, best_d = None, -1.0
+    for rid, d in sorted(candidates):
+        if d < own and d > best_d:
+            best, best_d = rid, d
+    return best
