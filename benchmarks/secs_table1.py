@@ -142,16 +142,17 @@ def main() -> None:
             for s in range(1, args.reps + 1) for d in COLUMNS for n in sizes]
     jobs += [{"n": 16, "delta": 240.0, "seed": s, "seconds": args.fig5_seconds, "tasks": 3,
               "distance": FIG5_DISTANCE} for s in range(1, args.reps + 1)]
-    jobs.sort(key=lambda j: -j["n"] * j["seconds"])  # longest first
+    jobs.sort(key=lambda j: (j["seed"], -j["n"] * j["seconds"]))  # repetition by repetition, longest first
     rows = []
     t0 = time.time()
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     with ProcessPoolExecutor(args.jobs) as pool:
-        for row in pool.map(one, jobs):
+        for row in pool.map(one, jobs):  # the file is rewritten after every run: partial results survive
             rows.append(row)
             print(json.dumps(row), flush=True)
-    out = {"rows": rows, "table": summarise(rows), "wall_s": round(time.time() - t0, 1), "tol_m": TOL}
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(out, indent=1))
+            out = {"rows": rows, "table": summarise(rows), "wall_s": round(time.time() - t0, 1), "tol_m": TOL,
+                   "done": f"{len(rows)}/{len(jobs)}"}
+            Path(args.out).write_text(json.dumps(out, indent=1))
     print(json.dumps(out["table"], indent=1))
 
 

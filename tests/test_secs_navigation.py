@@ -24,7 +24,7 @@ def _outcomes(result) -> dict:
 
 
 def test_one_prominence_reaches_a_task_at_5_root_2(tmp_path):
-    sc = secs_scenario(10, 5 * math.sqrt(2), delta=240.0, seconds=110, checks=[
+    sc = secs_scenario(10, 5 * math.sqrt(2), delta=240.0, seconds=90, checks=[
         {"use": "secs.connected"}, {"use": "secs.reach"}, {"use": "world.no_collisions"},
         {"use": "secs.angle", "bound": 1e-3}])
     result = swarmactors.run(sc, out=tmp_path)
@@ -47,7 +47,7 @@ def test_same_trace_hash_with_one_and_three_hosts(tmp_path):
 
 def test_rendezvous_gathers_the_swarm(tmp_path):
     """The master floods δ = 90: every robot moves by Lennard-Jones alone and the swarm stays compact."""
-    sc = secs_scenario(8, 4.0, delta=240.0, seconds=30, rendezvous_at=0.0, delta_rv=90.0,
+    sc = secs_scenario(8, 4.0, delta=240.0, seconds=20, rendezvous_at=0.0, delta_rv=90.0,
                        checks=[{"use": "secs.connected"}, {"use": "world.no_collisions"}])
     result = swarmactors.run(sc, out=tmp_path)
     assert result.passed, result.checks
@@ -59,7 +59,7 @@ def test_rendezvous_gathers_the_swarm(tmp_path):
 
 
 def test_flocking_moves_the_swarm_with_its_master(tmp_path):
-    sc = secs_scenario(8, 4.0, seconds=40, flock_at=0.0, flock_to=[2.0, 0.0],
+    sc = secs_scenario(8, 4.0, seconds=25, flock_at=0.0, flock_to=[4.0, 0.0], flock_speed=0.1,
                        checks=[{"use": "secs.connected"}, {"use": "world.no_collisions"}])
     result = swarmactors.run(sc, out=tmp_path)
     assert result.passed, result.checks

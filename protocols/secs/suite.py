@@ -24,12 +24,12 @@ def _case(name: str, checks: list[dict], **kw) -> Case:
 def suite(mode: str) -> list[Case]:
     """One short arm (both δ), loss; ``full`` adds longer arms, three arms and noisy bearings."""
     cases = [
-        _case("n5-d240-3r2", ALL, n=5, distance=3 * 2**0.5, seconds=80),
-        _case("n5-d120-2r2", ALL, n=5, distance=2 * 2**0.5, delta=120.0, seconds=100),
-        _case("n5-d240-3r2-loss-0.1", ALL[:3], n=5, distance=3 * 2**0.5, seconds=100, loss=0.1),
+        _case("n5-d240-3r2", ALL, n=5, distance=3 * 2**0.5, seconds=32),
+        _case("n5-d120-2r2", ALL, n=5, distance=2 * 2**0.5, delta=120.0, seconds=20),
     ]
     if mode == "full":
         cases += [
+            _case("n5-d240-3r2-loss-0.1", ALL[:3], n=5, distance=3 * 2**0.5, seconds=100, loss=0.1),
             _case("n10-d240-5r2", ALL, n=10, distance=5 * 2**0.5, seconds=200),
             _case("n10-d120-3r2", ALL, n=10, distance=3 * 2**0.5, delta=120.0, seconds=200),
             _case("n16-d240-3arms", ALL[:3], n=16, distance=5.0, tasks=3, seconds=300),
