@@ -36,7 +36,7 @@ SCENARIO_PINS = {
     "maze-flood.toml": "1f0ccd0251fecf9d90283cb287b8349a",  # issue 14
     "roles-aat.toml": "84e75f28cd9855bc0ecee67eb2b85352",
     "roles-patrol.toml": "40afe03e2c9d87a774380ebf7517d834",
-    "secs-prominence.toml": "054629c72c96846b58a3b0bd260466c1",  # issue 18
+    "secs-prominence.toml": "0bc067f2ad73d4a08a215790ef056a8f",  # issue 18
     "stigmergy.toml": "df9a3f0a12473e58a660537ee6ade53e",
 }
 
@@ -65,8 +65,8 @@ CASE_PINS = {
     "roles/patrol-10-s1": "6f80659879f356e28b7a34146d416650",
     "roles/patrol-20-s3": "ba7d21f9e85a205e5efff2c25361f9c4",
     "roles/patrol-10-s2-loss-0.1": "e29a4156897d3edea8964f84bc4e851b",
-    "secs/n5-d240-3r2": "054629c72c96846b58a3b0bd260466c1",  # issue 18
-    "secs/n5-d120-2r2": "14d25de633252349bbb37bff99d8fd7b",  # issue 18
+    "secs/n5-d240-3r2": "0bc067f2ad73d4a08a215790ef056a8f",  # issue 18
+    "secs/n5-d240-3r2-loss-0.1": "941c4678eace6a873d8afc4677579aa1",  # issue 18
     "stigmergy/ring-10": "e47282caa9d1d1db51f657b644fdc888",
     "stigmergy/rgg-20-s1": "7c94528d4b213934d8c10eda0f209eb7",
     "stigmergy/two-components": "70cfb08999bd23fc94d4d7f95eec164c",

@@ -24,7 +24,7 @@ def _outcomes(result) -> dict:
 
 
 def test_one_prominence_reaches_a_task_at_5_root_2(tmp_path):
-    sc = secs_scenario(10, 5 * math.sqrt(2), delta=240.0, seconds=90, checks=[
+    sc = secs_scenario(10, 5 * math.sqrt(2), delta=240.0, seconds=60, checks=[
         {"use": "secs.connected"}, {"use": "secs.reach"}, {"use": "world.no_collisions"},
         {"use": "secs.angle", "bound": 1e-3}])
     result = swarmactors.run(sc, out=tmp_path)
@@ -40,7 +40,7 @@ def test_one_prominence_reaches_a_task_at_5_root_2(tmp_path):
 
 
 def test_same_trace_hash_with_one_and_three_hosts(tmp_path):
-    sc = secs_scenario(6, 3 * math.sqrt(2), delta=240.0, seconds=15, checks=[{"use": "secs.connected"}])
+    sc = secs_scenario(6, 3 * math.sqrt(2), delta=240.0, seconds=8, checks=[{"use": "secs.connected"}])
     hashes = {k: swarmactors.run(sc, out=tmp_path / f"k{k}", processes=k)["trace_hash"] for k in (1, 3)}
     assert hashes[1] == hashes[3]
 

@@ -88,7 +88,7 @@ class SECS(Behavior):
     plot_field = "arm"
 
     def __init__(self, master: int = 0, delta: float = 240.0, epsilon: float = 1e6, delta_close: float = 120.0,
-                 v_max: float = 0.15, align_tol: float = 0.0314, rendezvous_at: float | None = None,
+                 v_max: float = 0.15, align_tol: float = 0.087, rendezvous_at: float | None = None,
                  delta_rv: float = 90.0, flock_at: float | None = None, flock_to: list | None = None,
                  flock_speed: float = 0.05, task_prefix: str = "task"):
         self.master, self.delta, self.epsilon, self.delta_close = master, delta, epsilon, delta_close

@@ -22,20 +22,19 @@ def _case(name: str, checks: list[dict], **kw) -> Case:
 
 
 def suite(mode: str) -> list[Case]:
-    """One short arm (both δ), loss; ``full`` adds longer arms, three arms and noisy bearings."""
+    """One short arm, with and without loss; ``full`` adds longer arms, δ = 120, three arms, noisy bearings."""
     cases = [
         _case("n5-d240-3r2", ALL, n=5, distance=3 * 2**0.5, seconds=32),
-        _case("n5-d120-2r2", ALL, n=5, distance=2 * 2**0.5, delta=120.0, seconds=20),
+        _case("n5-d240-3r2-loss-0.1", ALL, n=5, distance=3 * 2**0.5, seconds=32, loss=0.1),
     ]
     if mode == "full":
         cases += [
-            _case("n5-d240-3r2-loss-0.1", ALL[:3], n=5, distance=3 * 2**0.5, seconds=100, loss=0.1),
-            _case("n10-d240-5r2", ALL, n=10, distance=5 * 2**0.5, seconds=200),
-            _case("n10-d120-3r2", ALL, n=10, distance=3 * 2**0.5, delta=120.0, seconds=200),
+            _case("n10-d240-5r2", ALL, n=10, distance=5 * 2**0.5, seconds=100),
+            _case("n10-d120-3r2", ALL, n=10, distance=3 * 2**0.5, delta=120.0, seconds=140),
             _case("n16-d240-3arms", ALL[:3], n=16, distance=5.0, tasks=3, seconds=300),
             _case("n10-d240-5r2-noise", [*ALL[:3], {"use": "secs.angle", "bound": 0.3}], n=10,
-                  distance=5 * 2**0.5, seconds=200, bearing_noise=0.02, range_noise=0.01),
-            _case("n5-d240-3r2-s2", ALL, n=5, distance=3 * 2**0.5, seconds=80, seed=2),
+                  distance=5 * 2**0.5, seconds=120, bearing_noise=0.02, range_noise=0.01),
+            _case("n5-d240-3r2-s2", ALL, n=5, distance=3 * 2**0.5, seconds=60, seed=2),
         ]
     return cases
 
