@@ -47,9 +47,12 @@ def secs_scenario(n: int, distance: float, *, tasks: int = 1, delta: float = 240
     backbone = {"positions": cluster(n), "sensing_frame": "local", **common}
     if bearing_noise or range_noise:
         backbone.update(bearing_noise=bearing_noise, range_noise=range_noise)
+    radio = {"range": 3.0, "latency": 1, "loss": loss}
+    if clock == "realtime":  # frames arrive within half a tick, after at least a fifth
+        radio.update(latency_s=0.05, latency_min_s=0.02)
     return {
         "run": {"name": name, "seed": seed, "clock": clock, "dt": 0.1, "ticks": int(round(seconds / 0.1))},
-        "radio": {"range": 3.0, "latency": 1, "loss": loss},
+        "radio": radio,
         "world": {"bounds": [[-15.0, -15.0], [15.0, 15.0]], "objects": tasks_at(distance, tasks)},
         "robots": [{"positions": [[0.0, 0.0]], **common}, backbone],
         "checks": checks if checks is not None else [

@@ -35,6 +35,7 @@ def suite(mode: str) -> list[Case]:
             _case("n10-d240-5r2-noise", [*ALL[:3], {"use": "secs.angle", "bound": 0.3}], n=10,
                   distance=5 * 2**0.5, seconds=120, bearing_noise=0.02, range_noise=0.01),
             _case("n5-d240-3r2-s2", ALL, n=5, distance=3 * 2**0.5, seconds=60, seed=2),
+            _case("n5-d240-3r2-realtime", ALL[:3], n=5, distance=3 * 2**0.5, seconds=45, clock="realtime"),
         ]
     return cases
 
