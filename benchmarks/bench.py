@@ -453,13 +453,15 @@ def realtime_case(n: int, k: int, seconds: float) -> dict:
         ],
     )
     data, meters = run_emulator(sc, k)
-    delays, uplink = [], []
+    delays, uplink, mono = [], [], []
     for r in data["robots"].values():
         rep = r.get("latency_probe") or {}
         delays += rep.get("delays", [])
         uplink += rep.get("uplink", [])
+        mono += rep.get("delays_mono", [])
     err_ms = (np.array(delays) - c) * 1e3
     up_ms = np.array(uplink) * 1e3
+    call_ms = (np.array(mono) - c) * 1e3  # from the broadcast call to on_frame, one monotonic clock
 
     def dist(a: np.ndarray) -> dict:
         if not a.size:
@@ -484,6 +486,7 @@ def realtime_case(n: int, k: int, seconds: float) -> dict:
         "samples": int(err_ms.size),
         "deliveries": data["world"]["deliveries"],
         "error_ms": dist(err_ms),
+        "call_ms": dist(call_ms),
         "uplink_ms": dist(up_ms),
         "rest_ms": dist(err_ms - up_ms),
         "problems": check_run(data, n, data["ticks"]),
