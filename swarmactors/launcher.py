@@ -125,66 +125,78 @@ async def run_world(
     """
     if run_secret is None:
         run_secret = run_secret_from_env() or (new_key() if local_host else None)
-    out_dir.mkdir(parents=True, exist_ok=True)  # noqa: ASYNC240 — one quick mkdir before the world opens
-    keys = Keys(run_id)
-    trace_path = out_dir / "trace.msgpack" if sc["run"]["trace"] else None
-    writer = TraceWriter(
-        trace_path,
-        {"run_id": run_id, "clock": sc["run"]["clock"], "seed": sc["run"]["seed"],
-         "pos_digits": POS_DIGITS, "scenario": to_jsonable(sc)},
-        compression=None if sc["run"].get("trace_compression", "none") == "none" else sc["run"]["trace_compression"],
-    )
-    interrupted = False
-    procs: list[multiprocessing.Process] = []
     loop = asyncio.get_running_loop()
-    watchdog_s = float(sc["run"].get("watchdog_s", 10.0))
-    # the session lease follows the documented rule 2·watchdog_s + 5 (transport.lease_settings)
-    endpoints = dataclasses.replace(endpoints, extra={**lease_settings(watchdog_s), **endpoints.extra})
-    with Link(endpoints, loop) as link:
-        world = World(world_spec(sc), link, keys, sinks=[writer], on_tick=on_tick, run_secret=run_secret)
-        world.open()
-        if on_open:
-            on_open(world, link)
+    interrupted: str | None = None  # the signal that ended the run, if one did
+    world: World | None = None
 
-        def interrupt(name: str) -> None:
-            nonlocal interrupted
-            interrupted = True
+    def interrupt(name: str) -> None:
+        """SIGINT and SIGTERM end the run the same way; one that comes before the world exists stops it at once."""
+        nonlocal interrupted
+        interrupted = name
+        if world is not None:
             world.request_stop(f"interrupted ({name})", interrupted=True)
 
-        for signum, name in STOP_SIGNALS.items():  # SIGTERM (docker stop) is handled as SIGINT
-            try:
-                loop.add_signal_handler(signum, interrupt, name)
-            except (RuntimeError, ValueError):  # not the main thread
-                pass
+    for signum, name in STOP_SIGNALS.items():  # installed before anything is written (SIGTERM: docker stop)
         try:
-            n = len(world.robots)
-            k = min(processes, n)
-            if k > 0:
-                endpoint = link.locators()[0]
-                procs = spawn_hosts(endpoint, run_id, split(n, k), allowed_modules(sc), run_secret, watchdog_s)
-            with quiet_gc():
-                try:
-                    async with asyncio.TaskGroup() as tg:
-                        tg.create_task(world.run())
-                        if k == 0 and local_host:
-                            tg.create_task(_local_host(link, keys, allowed_modules(sc), run_secret))
-                except BaseExceptionGroup as group:  # report the first failure as itself (e.g. robots never claimed)
-                    raise group.exceptions[0] from None
-        finally:
-            for signum in STOP_SIGNALS:
-                try:
-                    loop.remove_signal_handler(signum)
-                except (RuntimeError, ValueError):
-                    pass
-            writer.close()
-            await asyncio.to_thread(end_hosts, procs, HOSTS_EXIT_S)
-    summary = world.summary()
-    data = assemble(sc, summary, writer, run_id, processes, interrupted)
-    result = write_result(data, out_dir)
-    if not interrupted and sc["checks"]:
-        result.data["checks"] = judge(result, sc["checks"])
-        result = write_result(result.data, out_dir)
-    return result
+            loop.add_signal_handler(signum, interrupt, name)
+        except (RuntimeError, ValueError):  # not the main thread
+            pass
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)  # noqa: ASYNC240 — one quick mkdir before the world opens
+        keys = Keys(run_id)
+        trace_path = out_dir / "trace.msgpack" if sc["run"]["trace"] else None
+        compression = sc["run"].get("trace_compression", "none")
+        writer = TraceWriter(
+            trace_path,
+            {"run_id": run_id, "clock": sc["run"]["clock"], "seed": sc["run"]["seed"],
+             "pos_digits": POS_DIGITS, "scenario": to_jsonable(sc)},
+            compression=None if compression == "none" else compression,
+        )
+        procs: list[multiprocessing.Process] = []
+        watchdog_s = float(sc["run"].get("watchdog_s", 10.0))
+        # the session lease follows the documented rule 2·watchdog_s + 5 (transport.lease_settings)
+        endpoints = dataclasses.replace(endpoints, extra={**lease_settings(watchdog_s), **endpoints.extra})
+        with Link(endpoints, loop) as link:
+            world = World(world_spec(sc), link, keys, sinks=[writer], on_tick=on_tick, run_secret=run_secret)
+            world.open()
+            if on_open:
+                on_open(world, link)
+            if interrupted is not None:  # a signal came while the world was being set up
+                world.request_stop(f"interrupted ({interrupted})", interrupted=True)
+            try:
+                n = len(world.robots)
+                k = min(processes, n)
+                if k > 0:
+                    endpoint = link.locators()[0]
+                    procs = spawn_hosts(endpoint, run_id, split(n, k), allowed_modules(sc), run_secret, watchdog_s)
+                with quiet_gc():
+                    try:
+                        async with asyncio.TaskGroup() as tg:
+                            tg.create_task(world.run())
+                            if k == 0 and local_host:
+                                tg.create_task(_local_host(link, keys, allowed_modules(sc), run_secret))
+                    except BaseExceptionGroup as group:  # the first failure as itself (e.g. robots never claimed)
+                        raise group.exceptions[0] from None
+            finally:
+                writer.close()
+                await asyncio.to_thread(end_hosts, procs, HOSTS_EXIT_S)
+        # a signal from here on still leaves a whole result.json (marked interrupted, checks not run)
+        summary = world.summary()
+        data = assemble(sc, summary, writer, run_id, processes, interrupted is not None)
+        result = write_result(data, out_dir)
+        if interrupted is None and sc["checks"]:
+            result.data["checks"] = judge(result, sc["checks"])
+            result = write_result(result.data, out_dir)
+        if interrupted is not None and not result["interrupted"]:  # the signal came while the result was written
+            result.data["interrupted"] = True
+            result = write_result(result.data, out_dir)
+        return result
+    finally:  # the handlers stay until result.json is written, so no signal can cut it
+        for signum in STOP_SIGNALS:
+            try:
+                loop.remove_signal_handler(signum)
+            except (RuntimeError, ValueError):
+                pass
 
 
 def judge(result: Result, specs: list[dict]) -> list[dict]:

@@ -135,6 +135,7 @@ class TraceWriter:
                 head = {"trace": "swarmactors", "version": VERSION, **header}
                 self.header_hash = digest(head)
                 self._file.write(pack(head))
+                self._flush()  # the header is on disk as soon as the world opens
             except OSError as exc:
                 self._fail(exc)
 
