@@ -13,6 +13,12 @@ numpy's λ2 of the true Laplacian, the iteration from which e stays ≤ 1 % (Non
 the first iteration with e ≤ 1 %, the final e, and L2 frames and bytes per robot per iteration (from the
 trace). Plots: docs/img/lambda2-fig2.png (iterations vs p) and docs/img/lambda2-error.png (median e(k)).
 Nothing is asserted.
+
+The K = 10 part as one sweep (``benchmarks/lambda2-fig2.toml``: a grid of method × p × drop semantics, one
+trial per graph, each trial ``sweep_trial``; ``sweep_figures`` draws both plots from trials.csv), locally or
+on a Dask cluster:
+
+    swarmactors sweep benchmarks/lambda2-fig2.toml [--cluster tcp://SCHEDULER:8786] [--trials 4]
 """
 
 from __future__ import annotations
@@ -162,6 +168,26 @@ def plot(rows: list[dict], summary: list[dict], img: Path) -> None:
     fig.tight_layout()
     fig.savefig(img / "lambda2-error.png", dpi=110)
     plt.close(fig)
+
+
+def sweep_trial(params: dict, *, seed: int, trial: int) -> dict:
+    """One trial of ``benchmarks/lambda2-fig2.toml``: graph number ``trial + 1`` (as ``jobs``), one method and p."""
+    method = params["method"]
+    ticks = params.get("ticks", {}).get(method, TICKS[method])
+    return one({"K": int(params["K"]), "seed": trial + 1, "method": method, "p": float(params["p"]),
+                "drop": params["drop"], "ticks": int(ticks)})
+
+
+def sweep_figures(csv_path: Path, out_dir: Path) -> list[Path]:
+    """The sweep's post step: the summary (``fig2.json``) and both plots, from trials.csv."""
+    from swarmactors.sweep import returned_values
+
+    rows = returned_values(csv_path)
+    summary = summarise(rows)
+    out = Path(out_dir)
+    (out / "fig2.json").write_text(json.dumps({"summary": summary}, indent=1))
+    plot(rows, summary, out)
+    return [out / "fig2.json", out / "lambda2-fig2.png", out / "lambda2-error.png"]
 
 
 def main() -> None:

@@ -16,6 +16,12 @@ interrupted run leaves beside it.
 Writes the per-instance records and the Table II aggregates to the JSON file, and ``tsc-times.png`` (Table II
 as curves, and Λ against D), ``tsc-dislocation.png`` (Fig. 7), ``tsc-arms.png`` (Fig. 8) and
 ``tsc-schedule.png`` (Fig. 6: one instance, both models) to the image directory. Nothing is asserted.
+
+The same experiment as one sweep (``benchmarks/tsc-table2.toml``: a grid of class × D, 24 trials a cell, each
+trial one instance solved by ``sweep_trial``; ``sweep_figures`` draws Table II and Figs. 7-8 from trials.csv),
+locally or on a Dask cluster:
+
+    swarmactors sweep benchmarks/tsc-table2.toml [--cluster tcp://SCHEDULER:8786] [--trials 8]
 """
 
 from __future__ import annotations
@@ -51,6 +57,7 @@ from protocols.secs.schedule import (  # noqa: E402
     used_slots,
 )
 from protocols.secs.schedule_check import check_schedule, euclidean_excess  # noqa: E402
+from swarmactors.sweep import returned_values  # noqa: E402
 
 # One base class and one-factor variations of it (docs/protocols/tsc.md, "Instances"): sized so that HiGHS on
 # one core solves most instances within the limit at large D and reaches it on part of the small-D ones.
@@ -230,6 +237,32 @@ def plot_example(classes: dict, cls: int, density: float, idx: int, limit: float
     tdsm = solve_tdsm(inst, completion_time(inst, tctm), limit)
     save_schedule_figure(inst, tctm, tdsm if tdsm.solved else None, path)
     return {"class": cls, "density": density, "index": idx, "tctm": tctm.status, "tdsm": tdsm.status}
+
+
+def sweep_trial(params: dict, *, seed: int, trial: int) -> dict:
+    """One trial of ``benchmarks/tsc-table2.toml``: instance number ``trial`` of cell (class, density).
+
+    The instance depends on (class, D, trial) only, as in ``main`` (the sweep's seed is not used), so the
+    sweep and the script solve the same instances.
+    """
+    classes = QUICK if params.get("quick") else CLASSES
+    return run_one(classes, int(params["class"]), float(params["density"]), trial, float(params["time_limit"]))
+
+
+def sweep_figures(csv_path: Path, out_dir: Path) -> list[Path]:
+    """The sweep's post step: Table II aggregates (``table2.json``) and the Table II / Figs. 7-8 plots."""
+    identity = json.loads((Path(out_dir) / "sweep.json").read_text())
+    limit = float(identity["params"]["time_limit"])
+    records = sorted(returned_values(csv_path), key=lambda r: (r["class"], r["density"], r["index"]))
+    agg = aggregate(records, limit)
+    out = Path(out_dir)
+    (out / "table2.json").write_text(json.dumps({"time_limit_s": limit, "instances": len(records),
+                                                  "table2": agg}, indent=1))
+    paths = [out / "tsc-times.png", out / "tsc-dislocation.png", out / "tsc-arms.png"]
+    plot_times(agg, paths[0], limit)
+    plot_pairs(records, "dislocation", paths[1], "Fig. 7: dislocation Σ|Θ^s − Θ^{s−1}|₁ (TDSM reduces it)")
+    plot_pairs(records, "arm_cost", paths[2], "Fig. 8: arm cost Σ (Γ/Ω) w (no improvement)")
+    return [out / "table2.json", *paths]
 
 
 def main(argv=None) -> int:

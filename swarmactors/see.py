@@ -188,7 +188,7 @@ def _sweep(args, err: Console) -> int:
         t.add_row("errors", str(outcome.errors))
         t.add_row("csv", str(outcome.csv))
         for p in outcome.plots:
-            t.add_row("plot", str(p))
+            t.add_row("file", str(p))
         if outcome.interrupted:
             t.add_row("interrupted", "run the same command again to finish the sweep")
         err.print(t)

@@ -29,7 +29,11 @@ as tasks on a Dask cluster instead, each in a fresh child process on its worker
 
 A sweep file (``read_spec``) is a TOML file with one ``[sweep]`` table naming
 the scenario and its ``set``, ``grid``, ``trials`` and ``out``:
-``swarmactors sweep experiment.toml`` runs it.
+``swarmactors sweep experiment.toml`` runs it. A sweep file may name a Python
+callable instead of a scenario (``trial = "module:function"``, for trials that
+are not runs, such as one MILP instance): each trial calls
+``function(params, seed=…, trial=…)`` with the ``params`` table and the grid
+point's values, and its returned dict becomes the row's ``metric.`` cells.
 """
 
 from __future__ import annotations
@@ -57,6 +61,7 @@ from transport.messages import DROP_CAUSES
 
 COLUMNS_AFTER_GRID = ["trial", "seed", "ticks", "trace_hash", "stop_reason", "robots", "alive", "frames_sent",
                       "deliveries", *[f"dropped.{c}" for c in DROP_CAUSES], "dropped_total", "passed", "error"]
+CALLABLE_COLUMNS_AFTER_GRID = ["trial", "seed", "error"]
 SWEEP_VERSION = 1
 
 
@@ -86,10 +91,16 @@ class Sweep:
     name: str
     identity: dict = field(default_factory=dict)
     post: str | None = None  # a sweep file's post-processing function, "module:function"
+    trial_fn: str | None = None  # a callable sweep's trial function, "module:function" (no scenario)
+    params: dict = field(default_factory=dict)  # a callable sweep's fixed parameters
 
     @property
     def keys(self) -> list[str]:
         return [k for k, _ in self.grid]
+
+    @property
+    def columns_after_grid(self) -> list[str]:
+        return CALLABLE_COLUMNS_AFTER_GRID if self.trial_fn else COLUMNS_AFTER_GRID
 
     @property
     def csv_path(self) -> Path:
@@ -106,6 +117,10 @@ class Sweep:
     def trial_values(self, t: Trial) -> dict:
         """The values this trial sets on top of the overrides: its grid point's and its seed."""
         return {**dict(zip(self.keys, t.values, strict=True)), "run.seed": t.seed}
+
+    def trial_params(self, t: Trial) -> dict:
+        """A callable sweep's arguments for trial ``t``: the ``params`` table, then its grid point's values."""
+        return {**self.params, **dict(zip(self.keys, t.values, strict=True))}
 
 
 def load_point(scenario: str | Path, overrides: list[str], values: dict) -> dict:
@@ -199,18 +214,78 @@ def plan(source: str | Path, overrides: list[str], grid_items: list[str], trials
     spec = read_spec(source)
     if spec is None:
         return prepare(source, overrides, grid_items, 1 if trials is None else trials, out)
-    sw = prepare(spec["scenario"], [*spec["set"], *overrides], [*spec["grid"], *grid_items],
-                 spec["trials"] if trials is None else trials, out or spec["out"])
+    grid = _merged_grid(spec["grid"], grid_items)
+    if spec["trial"] is not None:
+        sw = prepare_callable(source, spec, overrides, grid, trials, out)
+    else:
+        sw = prepare(spec["scenario"], [*spec["set"], *overrides], grid,
+                     spec["trials"] if trials is None else trials, out or spec["out"])
     sw.post = spec["post"]
     if sw.post:
-        _post_function(sw.post, source)  # a post function that cannot load stops the sweep before it starts
+        _load_function(sw.post, source)  # a post function that cannot load stops the sweep before it starts
     return sw
+
+
+def prepare_callable(source: str | Path, spec: dict, overrides: list[str], grid_items: list[str | tuple],
+                     trials: int | None, out: Path | None) -> Sweep:
+    """A sweep of a Python callable (``trial = "module:function"``): no scenario, ``params`` instead of ``set``.
+
+    ``--set KEY=VALUE`` sets ``params.KEY`` (a TOML value) and ``--seed`` the base seed; ``--clock`` is refused.
+    """
+    params = dict(spec["params"])
+    base_seed = spec["seed"]
+    for item in overrides:
+        key, _, text = item.partition("=")
+        if key == "run.seed":
+            base_seed = _toml_value(text, item)
+            if type(base_seed) is not int:
+                raise SweepError(f"--seed {text}: must be an integer")
+        elif key.startswith("run."):
+            raise SweepError(f"{source}: --set {item!r}: a sweep of {spec['trial']} has no scenario (only "
+                             "--seed, --grid and --set of its params apply)")
+        else:
+            params[key] = _toml_value(text, item)
+    grid = [item if isinstance(item, tuple) else parse_grid(item) for item in grid_items]
+    keys = [k for k, _ in grid]
+    if len(set(keys)) != len(keys):
+        raise SweepError("--grid: a key is given twice")
+    n = spec["trials"] if trials is None else trials
+    if n < 1:
+        raise SweepError(f"--trials {n}: must be >= 1")
+    _load_function(spec["trial"], source, "trial")  # a trial function that cannot load stops the sweep now
+    name = Path(source).stem
+    identity = {"version": SWEEP_VERSION, "trial": spec["trial"], "params": params, "seed": base_seed,
+                "grid_keys": keys}
+    return Sweep(Path(source), [], grid, n, out or spec["out"] or Path("out") / f"{name}-sweep", base_seed, name,
+                 identity, trial_fn=spec["trial"], params=params)
+
+
+def _toml_value(text: str, item: str):
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        if re.fullmatch(r"[\w.-]+", text):
+            return text  # a bare word is a string, as in --grid
+        raise SweepError(f"--set {item!r}: the value is not TOML") from None
+
+
+def _merged_grid(file_grid: list[tuple], items: list[str]) -> list[tuple]:
+    """The sweep file's grid, then the ``--grid`` options: an option for a key of the file replaces its values."""
+    grid = dict(file_grid)
+    for item in items:
+        key, values = parse_grid(item)
+        grid[key] = values
+    return list(grid.items())
 
 
 SPEC_KEYS = {"scenario": "the scenario file, relative to this file", "set": "overrides, as --set",
              "grid": "a table of key = [values], as --grid", "trials": "runs per grid point",
              "out": "output directory (relative to the current directory)",
-             "post": '"module:function" called as function(trials_csv, out_dir) after the sweep (a figure)'}
+             "post": '"module:function" called as function(trials_csv, out_dir) after the sweep (a figure)',
+             "trial": '"module:function" called as function(params, seed=, trial=) -> dict, instead of a scenario',
+             "params": "a callable sweep's fixed arguments (a table)",
+             "seed": "a callable sweep's base seed (an integer; default 1)"}
+SCENARIO_ONLY, CALLABLE_ONLY = {"scenario", "set"}, {"trial", "params", "seed"}
 
 
 def read_spec(path: str | Path) -> dict | None:
@@ -236,8 +311,24 @@ def read_spec(path: str | Path) -> dict | None:
     def bad(key: str, what: str):
         return SweepError(f"{path}: key 'sweep.{key}' = {spec.get(key)!r}: must be {what}")
 
-    if not isinstance(spec.get("scenario"), str):
-        raise bad("scenario", "a scenario file name")
+    trial = spec.get("trial")
+    if trial is not None:
+        if not (isinstance(trial, str) and re.fullmatch(r"[\w.]+:\w+", trial)):
+            raise bad("trial", '"module:function"')
+        for key in SCENARIO_ONLY & set(spec):
+            raise SweepError(f"{path}: key 'sweep.{key}': a sweep names either a scenario or a trial function")
+    else:
+        for key in CALLABLE_ONLY & set(spec):
+            raise SweepError(f"{path}: key 'sweep.{key}' belongs to a sweep of a trial function "
+                             "(give 'sweep.trial')")
+        if not isinstance(spec.get("scenario"), str):
+            raise bad("scenario", "a scenario file name")
+    params = spec.get("params", {})
+    if not isinstance(params, dict):
+        raise bad("params", "a table")
+    seed = spec.get("seed", 1)
+    if type(seed) is not int:
+        raise bad("seed", "an integer")
     sets = spec.get("set", [])
     if not (isinstance(sets, list) and all(isinstance(x, str) and "=" in x for x in sets)):
         raise bad("set", 'a list of "SECTION.KEY=VALUE" strings')
@@ -257,8 +348,10 @@ def read_spec(path: str | Path) -> dict | None:
     post = spec.get("post")
     if post is not None and not (isinstance(post, str) and re.fullmatch(r"[\w.]+:\w+", post)):
         raise bad("post", '"module:function"')
-    return {"scenario": Path(path).parent / spec["scenario"], "set": sets, "grid": items, "trials": trials,
-            "out": Path(spec["out"]) if "out" in spec else None, "post": post}
+    scenario = Path(path).parent / spec["scenario"] if trial is None else None
+    return {"scenario": scenario, "set": sets, "grid": items, "trials": trials,
+            "out": Path(spec["out"]) if "out" in spec else None, "post": post, "trial": trial, "params": params,
+            "seed": seed}
 
 
 # ---------------------------------------------------------------- one trial
@@ -276,8 +369,11 @@ def base_row(sw: Sweep, t: Trial) -> dict:
 def run_trial(sweep_args: dict, t: Trial) -> dict | None:
     """Run one trial (in a worker process); return its CSV row (cells as strings), or None if interrupted."""
     sw: Sweep = sweep_args["sweep"]
-    out_dir = sw.trial_dir(t)
     row = base_row(sw, t)
+    if sw.trial_fn:
+        row.update(callable_cells(sw.trial_fn, sw.trial_params(t), t.seed, t.trial)[0])
+        return row
+    out_dir = sw.trial_dir(t)
     if out_dir.exists():
         shutil.rmtree(out_dir)  # a trial cut short before: start it afresh
     try:
@@ -292,6 +388,58 @@ def run_trial(sweep_args: dict, t: Trial) -> dict | None:
     if not keep:
         shutil.rmtree(out_dir, ignore_errors=True)
     return row
+
+
+def callable_cells(ref: str, params: dict, seed: int, trial: int, *, out: Path | None = None) -> tuple[dict, bool]:
+    """One trial of a callable sweep: ``function(params, seed=, trial=)``'s dict as ``metric.`` cells (no files).
+
+    A function that raises, or returns something else than a dict, gives an ``error`` cell: the sweep goes on.
+    """
+    try:
+        value = _load_function(ref, "the sweep file", "trial")(dict(params), seed=seed, trial=trial)
+        if not isinstance(value, dict):
+            raise TypeError(f"{ref} returned {type(value).__name__}, not a dict of metrics")
+    except Exception as exc:  # the row says why; the sweep goes on
+        return {"error": f"{exc.__class__.__name__}: {exc}"}, False
+    return {"error": "", **{f"metric.{k}": cell(v) for k, v in _flatten(value)}}, False
+
+
+def returned_values(csv_path: str | Path) -> list[dict]:
+    """A callable sweep's trials.csv read back: for each row without an error, the dict its trial function returned.
+
+    The inverse of the ``metric.`` cells (nested keys rebuilt from the dots, numbers, booleans, lists and empty
+    cells as values), in the CSV's order: what a sweep file's ``post`` function draws its figure from.
+    """
+    out = []
+    with open(csv_path, newline="") as f:
+        for row in csv.DictReader(f):
+            if row.get("error"):
+                continue
+            value: dict = {}
+            for column, text in row.items():
+                if column.startswith("metric."):
+                    *path, leaf = column.removeprefix("metric.").split(".")
+                    node = value
+                    for part in path:
+                        node = node.setdefault(part, {})
+                    node[leaf] = _uncell(text)
+            out.append(value)
+    return out
+
+
+def _uncell(text: str):
+    if text == "":
+        return None
+    if text in ("true", "false"):
+        return text == "true"
+    if text[:1] in "[{":
+        return json.loads(text)
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
 
 
 def cluster_trial(sc: dict, run_id: str, keep: str, *, out: Path) -> tuple[dict | None, bool]:
@@ -426,11 +574,12 @@ class Table:
         self._rewrite()
 
     def _header_for(self, rows) -> list[str]:
-        extra = sorted({k for r in rows for k in r} - set(self.sweep.keys) - set(COLUMNS_AFTER_GRID))
+        fixed = self.sweep.columns_after_grid
+        extra = sorted({k for r in rows for k in r} - set(self.sweep.keys) - set(fixed))
         metrics = [k for k in extra if k.startswith("metric.")]
         checks = [k for k in extra if k.startswith("check.")]
         others = [k for k in extra if k not in metrics and k not in checks]
-        return [*self.sweep.keys, *COLUMNS_AFTER_GRID, *metrics, *checks, *others]
+        return [*self.sweep.keys, *fixed, *metrics, *checks, *others]
 
     def _rewrite(self) -> None:
         def position(item):
@@ -606,7 +755,11 @@ def _on_cluster(sw: Sweep, pending: list[Trial], keep: str, client, take, runnin
     from swarmactors import cluster as cl
 
     jobs, uses = [], set()
-    for t in pending:
+    if sw.trial_fn:
+        cl.require_modules(client, cl.user_modules([sw.trial_fn]))
+        jobs = [cl.Job(t, "swarmactors.sweep:callable_cells", (sw.trial_fn, sw.trial_params(t), t.seed, t.trial),
+                       name="trial") for t in pending]
+    for t in pending if not sw.trial_fn else ():
         try:
             sc = load_point(sw.scenario, sw.overrides, sw.trial_values(t))
         except Exception as exc:  # as in the local pool: the row says why
@@ -615,7 +768,8 @@ def _on_cluster(sw: Sweep, pending: list[Trial], keep: str, client, take, runnin
         uses |= {b.get("use") for g in sc["robots"] for b in g.get("behaviors", [])}
         uses |= {c.get("use") for c in sc.get("checks", [])}
         jobs.append(cl.Job(t, "swarmactors.sweep:cluster_trial", (sc, trial_run_id(sw, t), keep), name="trial"))
-    cl.require_modules(client, cl.user_modules(uses))
+    if not sw.trial_fn:
+        cl.require_modules(client, cl.user_modules(uses))
 
     def on_reply(job: cl.Job, reply: cl.Reply) -> None:
         t: Trial = job.key
@@ -638,18 +792,18 @@ def _on_cluster(sw: Sweep, pending: list[Trial], keep: str, client, take, runnin
 
 def post_process(sw: Sweep) -> list[Path]:
     """Call the sweep file's ``post`` function on trials.csv; the files it returns (a figure) join the plots."""
-    made = _post_function(sw.post)(sw.csv_path, sw.out)
+    made = _load_function(sw.post)(sw.csv_path, sw.out)
     return [Path(p) for p in (made or [])]
 
 
-def _post_function(ref: str, source: str | Path = "the sweep file") -> Callable:
+def _load_function(ref: str, source: str | Path = "the sweep file", key: str = "post") -> Callable:
     import importlib
 
     module, _, name = ref.partition(":")
     try:
         return getattr(importlib.import_module(module), name)
     except (ImportError, AttributeError) as exc:
-        raise SweepError(f"{source}: key 'sweep.post' = {ref!r}: cannot load it ({exc})") from None
+        raise SweepError(f"{source}: key 'sweep.{key}' = {ref!r}: cannot load it ({exc})") from None
 
 
 # ---------------------------------------------------------------- summary plots

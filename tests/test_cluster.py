@@ -208,6 +208,7 @@ def test_a_sweep_file_is_the_sweep_of_its_options(tmp_path):
     assert (a.identity["overrides"], a.grid, a.trials, a.out) == (b.identity["overrides"], b.grid, b.trials, b.out)
     assert a.all_trials() == b.all_trials() and a.identity == b.identity
     assert plan(spec, [], ["radio.range=1,2"], 1, None).keys == ["robots.0.count", "radio.range"]
+    assert plan(spec, [], ["robots.0.count=5"], 1, None).grid == [("robots.0.count", [5])]  # replaces the file's
 
 
 @pytest.mark.docker
@@ -305,3 +306,66 @@ def test_a_sweep_file_runs_its_post_function_on_the_csv(tmp_path, monkeypatch):
     assert (tmp_path / "o" / "figure.txt").read_text() == "0 0.2"
     spec.write_text(spec.read_text().replace("exp_figure:draw", "exp_figure:nothing"))
     assert main(["sweep", str(spec), "--quiet"]) == 2
+
+
+CALLABLE_MODULE = textwrap.dedent("""
+    import random
+
+    def trial(params, *, seed, trial):
+        if params["n"] == 3 and trial == 1:
+            raise ValueError("no instance 3/1")
+        rng = random.Random(seed * 1000 + params["n"])
+        draws = [rng.random() for _ in range(params["n"] * params["scale"])]
+        return {"n": params["n"], "mean": sum(draws) / len(draws), "stats": {"max": max(draws), "trial": trial}}
+""")
+
+
+def _callable_spec(tmp_path: Path) -> Path:
+    (tmp_path / "draws_trial.py").write_text(CALLABLE_MODULE)
+    spec = tmp_path / "draws.toml"
+    spec.write_text('[sweep]\ntrial = "draws_trial:trial"\nparams = { scale = 10 }\nseed = 4\n'
+                    'grid = { n = [1, 2, 3] }\ntrials = 2\n')
+    return spec
+
+
+@pytest.mark.slow
+def test_a_sweep_of_a_trial_function_gives_the_same_rows_locally_and_on_the_cluster(cluster, tmp_path, monkeypatch):
+    """Trials that are not runs (one MILP instance, say): a callable named in the sweep file.
+
+    As in the Table II sweep (benchmarks/tsc-table2.toml).
+    """
+    address, client = cluster
+    spec = _callable_spec(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    assert main(["sweep", str(spec), "--workers", "2", "--out", "local", "--quiet"]) == 0
+    rows = _rows(tmp_path / "local" / "trials.csv")
+    assert [(r["n"], r["trial"]) for r in rows] == [(n, t) for n in "123" for t in "01"]
+    assert list(rows[0])[:5] == ["n", "trial", "seed", "error", "metric.mean"]
+    bad = [r for r in rows if r["error"]]
+    assert [(r["n"], r["trial"], r["error"]) for r in bad] == [("3", "1", "ValueError: no instance 3/1")]
+    good = [r for r in rows if not r["error"]]
+    assert all(0 < float(r["metric.mean"]) < 1 and r["metric.stats.trial"] == r["trial"] for r in good)
+    assert len({r["seed"] for r in rows}) == 2  # trial i of every point has the same seed
+    client.upload_file(str(tmp_path / "draws_trial.py"))
+    assert main(["sweep", str(spec), "--cluster", address, "--out", "dask", "--quiet"]) == 0
+    assert (tmp_path / "dask" / "trials.csv").read_bytes() == (tmp_path / "local" / "trials.csv").read_bytes()
+
+
+def test_a_sweep_of_a_trial_function_is_checked_before_it_starts(tmp_path, capsys, monkeypatch):
+    spec = _callable_spec(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    text = spec.read_text()
+    for body, words in [
+        (text + 'scenario = "x.toml"\n', ["'sweep.scenario'", "either a scenario or a trial function"]),
+        (text.replace("draws_trial:trial", "draws_trial:missing"), ["'sweep.trial'", "cannot load it"]),
+        (text.replace("seed = 4", 'seed = "four"'), ["'sweep.seed'", "an integer"]),
+        ('[sweep]\nscenario = "x.toml"\nparams = { a = 1 }\n', ["'sweep.params'", "trial function"]),
+    ]:
+        spec.write_text(body)
+        assert main(["sweep", str(spec), "--quiet", "--out", "o"]) == 2
+        err = capsys.readouterr().err
+        assert str(spec) in err and all(w in err for w in words), err
+    spec.write_text(text)
+    assert main(["sweep", str(spec), "--quiet", "--clock", "realtime", "--out", "o"]) == 2
+    assert "has no scenario" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
