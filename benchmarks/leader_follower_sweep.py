@@ -11,6 +11,11 @@ robot-robot collisions and runs where Assumptions 1–3 broke. Part 2 runs the f
 the proposed method at noise 0, 0.01, 0.02, 0.05 m (dt = 0.05 s) and at dt = 0.01, 0.05, 0.1, 0.2 s (no noise)
 and reports the smallest body margin (distance between bodies) and the guarantee checks. Prints one JSON line
 per run and a summary; wall time is printed too.
+
+Part 1 over the issue's 200 starts as one sweep (a trial = one start with one method; the post step writes
+starts.json with the tallies beside trials.csv), locally or on a Dask cluster:
+
+    swarmactors sweep benchmarks/leader-follower-starts.toml [--cluster tcp://SCHEDULER:8786] [--trials 20]
 """
 
 from __future__ import annotations
@@ -35,6 +40,34 @@ def one(sc: dict) -> dict:
     return {"collisions": col, "assumptions_held": not v, "body_margin": round(m["body"], 4),
             "guarantees": all(checks[k] for k in ("leader_follower.spanning_tree", "leader_follower.target_distance",
                                                   "leader_follower.speed", "leader_follower.sigma"))}
+
+
+def sweep_trial(params: dict, *, seed: int, trial: int) -> dict:
+    """One start of ``benchmarks/leader-follower-starts.toml``: configuration ``1000 + trial``, one method."""
+    sc = suite.random_scenario(int(params["followers"]), 1000 + trial, duration=float(params["duration"]),
+                               dt=float(params["dt"]), method=params["method"])
+    return {"start": 1000 + trial, "method": params["method"], **one(sc)}
+
+
+def sweep_tally(csv_path, out_dir) -> list:
+    """The post step: runs with a collision per method, and the proposed method's runs that broke an assumption."""
+    from pathlib import Path
+
+    from swarmactors.sweep import returned_values
+
+    rows = returned_values(csv_path)
+    tally = {}
+    for method in sorted({r["method"] for r in rows}):
+        mine = [r for r in rows if r["method"] == method]
+        tally[method] = {"runs": len(mine), "collision_runs": sum(r["collisions"] > 0 for r in mine),
+                         "assumption_broken_runs": sum(not r["assumptions_held"] for r in mine),
+                         "collision_runs_with_assumptions_held": sum(r["collisions"] > 0 and r["assumptions_held"]
+                                                                     for r in mine),
+                         "guarantees_held_runs": sum(bool(r["guarantees"]) for r in mine),
+                         "min_body_margin": min(r["body_margin"] for r in mine)}
+    path = Path(out_dir) / "starts.json"
+    path.write_text(json.dumps(tally, indent=1))
+    return [path]
 
 
 def main(runs: int, n: int, duration: float) -> None:

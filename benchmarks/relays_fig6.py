@@ -12,6 +12,12 @@ consecutive networkers (counted from the worker's parent) are killed; recovery t
 
     python benchmarks/relays_fig6.py --runs 4 --workers 2 --out benchmarks/results/relays_fig6.json
     python benchmarks/relays_fig6.py --plot benchmarks/results/relays_fig6.json
+
+The same experiment as two sweeps (one trial a run; a failure trial builds its chain first, then kills f
+networkers), locally or on a Dask cluster; the post step draws relays_fig6.png beside trials.csv:
+
+    swarmactors sweep benchmarks/relays-fig6.toml [--cluster tcp://SCHEDULER:8786] [--trials 4]
+    swarmactors sweep benchmarks/relays-fig6-failures.toml [--cluster ...]
 """
 
 from __future__ import annotations
@@ -206,7 +212,44 @@ def summarise(results: list[dict]) -> None:
             print(f"failed {f}: recovery {m:.2f} ± {h:.2f} s over {len([x for x in xs if x is not None])} runs")
 
 
-def plot(results: list[dict]) -> None:
+def sweep_trial(params: dict, *, seed: int, trial: int) -> dict:
+    """One time-factor run of ``benchmarks/relays-fig6.toml``: condition (targets, obstacle, wp), jitter ``trial``."""
+    targets, obstacle, wp = int(params["targets"]), bool(params["obstacle"]), bool(params["wp"])
+    ticks = 500 if obstacle else 450
+    return _run({"kind": "tf", "targets": targets, "obstacle": obstacle, "wp": wp, "seed": trial,
+                 "scenario": condition(targets, obstacle, wp, trial, ticks)})
+
+
+def sweep_failure_trial(params: dict, *, seed: int, trial: int) -> dict:
+    """One run of ``benchmarks/relays-fig6-failures.toml``: build chain ``trial`` (as ``failures``), kill f networkers.
+
+    The chain is built by its own run first (the same run for every f), so a trial is self-contained.
+    """
+    n, built, f = 14, 330, int(params["failed"])
+    base = _run({"kind": "base", "seed": trial, "scenario": relays_scenario(
+        n, [[RADIUS, 0.0]], ticks=built, seed=trial, positions=jittered(n, trial), checks=[])})
+    nets = base["chain"][1:-1]
+    if len(nets) < f:
+        return {"kind": "fail", "seed": trial, "failed": f, "networkers": len(nets), "recovery_s": None,
+                "skipped": "chain too short"}
+    sc = relays_scenario(n, [[RADIUS, 0.0]], ticks=built + 400, seed=trial, positions=jittered(n, trial),
+                         kills=[(built, nets[:f])],
+                         checks=[{"use": "relays.healed"}, {"use": "relays.reached", "slack": 100.0}])
+    return _run({"kind": "fail", "seed": trial, "failed": f, "networkers": len(nets), "scenario": sc})
+
+
+def sweep_figures(csv_path: Path, out_dir: Path) -> list[Path]:
+    """The sweeps' post step: Fig. 6's panels (those the sweep measured) and the printed summary."""
+    from swarmactors.sweep import returned_values
+
+    results = returned_values(csv_path)
+    summarise(results)
+    path = Path(out_dir) / "relays_fig6.png"
+    plot(results, path)
+    return [path]
+
+
+def plot(results: list[dict], path: Path = Path("docs/img/relays_fig6.png")) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -240,8 +283,9 @@ def plot(results: list[dict]) -> None:
     ax.set_ylabel("recovery time (s), 5 s link-failure time included")
     ax.set_title("Fig. 6 bottom (ours)")
     fig.tight_layout()
-    Path("docs/img").mkdir(parents=True, exist_ok=True)
-    fig.savefig("docs/img/relays_fig6.png", dpi=110)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 if __name__ == "__main__":

@@ -9,6 +9,12 @@ measures every column: the task is placed at the farthest distance and the neare
 same trace. Fig. 5: N = 16, three tasks 120° apart at ``FIG5_DISTANCE`` m, time until all three are reached.
 
     python benchmarks/secs_table1.py [--reps 2] [--seconds 400] [--jobs 2] [--out benchmarks/results/secs.json]
+
+The same runs as sweeps (one trial a repetition; the post step writes table1.json beside trials.csv), locally
+or on a Dask cluster:
+
+    swarmactors sweep benchmarks/secs-table1.toml [--cluster tcp://SCHEDULER:8786] [--trials 5]
+    swarmactors sweep benchmarks/secs-fig5.toml [--cluster ...]
 """
 
 from __future__ import annotations
@@ -126,6 +132,23 @@ def summarise(rows: list[dict]) -> dict:
                          "disconnected_ticks": sum(r["connected_ticks_lost"] for r in fig5),
                          "collisions": sum(r["collisions"] for r in fig5)}
     return table
+
+
+def sweep_trial(params: dict, *, seed: int, trial: int) -> dict:
+    """One run of ``benchmarks/secs-table1.toml`` (tasks = 1: n × δ, repetition ``trial``) or of the Fig. 5 file."""
+    delta, tasks = float(params["delta"]), int(params.get("tasks", 1))
+    distance = COLUMNS[delta][-1] if tasks == 1 else FIG5_DISTANCE
+    return one({"n": int(params["n"]), "delta": delta, "seed": trial + 1, "seconds": float(params["seconds"]),
+                "tasks": tasks, "distance": distance})
+
+
+def sweep_figures(csv_path: Path, out_dir: Path) -> list[Path]:
+    """The post step: Table I (and Fig. 5's full deployment time) beside the paper's, as ``table1.json``."""
+    from swarmactors.sweep import returned_values
+
+    path = Path(out_dir) / "table1.json"
+    path.write_text(json.dumps({"tol_m": TOL, "table": summarise(returned_values(csv_path))}, indent=1))
+    return [path]
 
 
 def main() -> None:

@@ -26,6 +26,12 @@
 
 Plots go to ``docs/img/stigmergy-*.png`` and ``docs/img/cbaa-*.png``; all
 numbers to the JSON file. Nothing is asserted.
+
+Parts 1 and 3 as sweeps (a trial = one run; the post step writes a summary JSON beside trials.csv), locally
+or on a Dask cluster:
+
+    swarmactors sweep benchmarks/stigmergy-convergence.toml [--cluster tcp://SCHEDULER:8786]
+    swarmactors sweep benchmarks/cbaa-instances.toml [--cluster ...]
 """
 
 from __future__ import annotations
@@ -232,18 +238,48 @@ def election_experiment(quick: bool, jobs: int) -> list[dict]:
 
 
 def cbaa_experiment(quick: bool, jobs: int) -> tuple[list[dict], list[dict]]:
-    rng = np.random.default_rng(2024)
-    cases = []
-    for k in range(30 if quick else 160):
-        layout = ["sparse", "medium", "dense", "line"][k % 4]
-        n = int(rng.integers(2, 25 if layout == "line" else 61))
-        m = int(rng.integers(1, 2 * n + 1))
-        cases.append((n, m, layout, k))
-    lock = _pool_map(cbaa_case, cases, jobs)
+    lock = _pool_map(cbaa_case, cbaa_instances(30 if quick else 160), jobs)
     sizes = [5, 10, 20, 30, 40, 15][: 2 if quick else 6]
     rt_cases = [(20, m, "medium", s, "realtime", 0.1) for s, m in enumerate(sizes)]
     rt = _pool_map(cbaa_case, rt_cases, 1)  # realtime runs are timed: never two at once
     return lock, rt
+
+
+def stigmergy_trial(params: dict, *, seed: int, trial: int) -> dict:
+    """One run of ``benchmarks/stigmergy-convergence.toml``: (N, loss, anti-entropy period), seed ``trial + 1``."""
+    return vs_case(int(params["n"]), float(params["loss"]), int(params["anti_entropy"]), trial + 1)
+
+
+def cbaa_instances(count: int) -> list[tuple]:
+    """The random CBAA instances of part 3 (N, M, layout, k), the same list as ``cbaa_experiment``'s."""
+    rng = np.random.default_rng(2024)
+    cases = []
+    for k in range(count):
+        layout = ["sparse", "medium", "dense", "line"][k % 4]
+        n = int(rng.integers(2, 25 if layout == "line" else 61))
+        m = int(rng.integers(1, 2 * n + 1))
+        cases.append((n, m, layout, k))
+    return cases
+
+
+def cbaa_trial(params: dict, *, seed: int, trial: int) -> dict:
+    """Instance ``trial`` of ``benchmarks/cbaa-instances.toml`` (lockstep, no loss)."""
+    return cbaa_case(*cbaa_instances(trial + 1)[trial])
+
+
+def sweep_summary(csv_path: Path, out_dir: Path) -> list[Path]:
+    """The post step of both sweeps: the summary of ``summarise`` for what the CSV holds, as ``summary.json``."""
+    from swarmactors.sweep import returned_values
+
+    rows = returned_values(csv_path)
+    vs = [r for r in rows if "anti_entropy" in r]
+    cb = [r for r in rows if "equals_greedy" in r]
+    whole = summarise(vs, [], cb, [])
+    data = {"cbaa": {k: v for k, v in whole["cbaa"].items() if not k.endswith("runs")}} if cb else \
+        {"stigmergy": whole["stigmergy"]["summary"]}
+    path = Path(out_dir) / "summary.json"
+    path.write_text(json.dumps(data, indent=1, default=str))
+    return [path]
 
 
 def summarise(vs: list[dict], el: list[dict], cb: list[dict], rt: list[dict]) -> dict:
@@ -267,7 +303,7 @@ def summarise(vs: list[dict], el: list[dict], cb: list[dict], rt: list[dict]) ->
     out["stigmergy"] = {"summary": table, "runs": vs}
     out["election"] = {"runs": el}
     lock_ok = [r for r in cb if r["equals_greedy"] and r["conflict_free"]]
-    out["cbaa"] = {
+    out["cbaa"] = {} if not cb else {
         "instances": len(cb),
         "equal_greedy": len(lock_ok),
         "within_nmin_d": sum(1 for r in cb if r["rounds"] <= r["bound"]),
