@@ -33,19 +33,37 @@ def image():
 
 
 def compose_up(compose, scenario: Path, out: Path, replicas: int, per_host: int, clock="lockstep",
-               on_running=None, secure=False) -> tuple[int, str]:
+               on_running=None, secure=False, uid: int | None = None) -> tuple[int, str]:
+    """``docker-compose up``; the containers run as the image's user (1000), or as ``uid`` when given.
+
+    ``out`` is made writable by any user, as docs/deploy.md says OUT must be writable by the containers' user.
+    """
     project = f"sa{uuid.uuid4().hex[:8]}"
+    out.chmod(0o777)
     env = {**os.environ, "SCENARIO": str(scenario), "OUT": str(out), "ROBOTS_PER_HOST": str(per_host),
            "CLOCK": clock, "RUN_ID": project}
+    for name in ("SWARMACTORS_UID", "SWARMACTORS_GID"):
+        env.pop(name, None)
+        if uid is not None:
+            env[name] = str(uid)
     base = [*compose, "-p", project, "-f", str(COMPOSE_FILE)]
     try:
         world, robots = ("world-secure", "robots-secure") if secure else ("world", "robots")
         profile = ["--profile", "secure"] if secure else []
+        if on_running:  # a container will be killed: compose must not stop the others when it exits
+            up = subprocess.run([*base, *profile, "up", "-d", "--scale", f"{robots}={replicas}", world, robots],
+                                env=env, capture_output=True, text=True, timeout=300)
+            assert up.returncode == 0, up.stderr
+            threading.Thread(target=on_running, args=(base, env), daemon=True).start()
+            world_id = subprocess.run([*base, "ps", "-q", world], env=env, capture_output=True, text=True,
+                                      timeout=60).stdout.strip()
+            waited = subprocess.run(["docker", "wait", world_id], capture_output=True, text=True, timeout=300)
+            logs = subprocess.run([*base, "logs", "--no-color"], env=env, capture_output=True, text=True,
+                                  timeout=60).stdout
+            return int(waited.stdout.strip() or -1), logs
         proc = subprocess.Popen([*base, *profile, "up", "--scale", f"{robots}={replicas}",
                                  "--abort-on-container-exit", "--exit-code-from", world, world, robots], env=env,
                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        if on_running:
-            threading.Thread(target=on_running, args=(base, env), daemon=True).start()
         logs, _ = proc.communicate(timeout=300)
         return proc.returncode, logs
     finally:
@@ -66,6 +84,7 @@ def test_compose_run_equals_the_single_process_run(image, tmp_path):
     code, logs = compose_up(image, scenario, out, replicas=3, per_host=10)
     assert code == 0, logs[-3000:]
     got = json.loads((out / "result.json").read_text())
+    assert (out / "result.json").stat().st_uid == 1000  # written by the image's user, not root
     ref = single_process(scenario, tmp_path / "single")
     assert {r["host"] for r in got["robots"].values()} == {"h0", "h1", "h2"}  # three containers ran robots
     assert got["trace_hash"] == ref["trace_hash"]  # lockstep: identical history
@@ -97,10 +116,13 @@ def test_killing_a_robot_container_fails_its_robots_and_the_run_goes_on(image, t
 
     def kill_one(base, env):
         deadline = time.monotonic() + 120
+        header = None  # the trace's size when only its header is written (at open, before the hosts joined)
         while time.monotonic() < deadline:
             ids = subprocess.run([*base, "ps", "-q", "robots"], env=env, capture_output=True, text=True).stdout.split()
-            if len(ids) == 3 and (out / "trace.msgpack").exists():
-                time.sleep(2.0)  # let the run tick for a while
+            size = (out / "trace.msgpack").stat().st_size if (out / "trace.msgpack").exists() else None
+            header = header if header is not None or size is None else size
+            if len(ids) == 3 and size is not None and size > header:  # ticks recorded: every host has joined
+                time.sleep(1.0)  # let the run tick for a while
                 subprocess.run(["docker", "kill", ids[0]], capture_output=True)
                 killed["at"] = time.monotonic()
                 return
@@ -122,10 +144,26 @@ def test_compose_secure_profile_runs_over_tls_with_the_credential(image, tmp_pat
     scenario = REPO / "scenarios" / "flooding.toml"
     out = tmp_path / "secure"
     out.mkdir()
-    code, logs = compose_up(image, scenario, out, replicas=3, per_host=10, secure=True)
+    code, logs = compose_up(image, scenario, out, replicas=3, per_host=10, secure=True, uid=4321)
     assert code == 0, logs[-3000:]
     got = json.loads((out / "result.json").read_text())
+    # SWARMACTORS_UID: every container ran as that user (the credential it shares is readable by it), and
+    # what the world wrote in OUT belongs to it
+    assert {p.stat().st_uid for p in out.iterdir()} == {4321}
     ref = single_process(scenario, tmp_path / "single")
     assert {r["host"] for r in got["robots"].values()} == {"h0", "h1", "h2"}
     assert got["trace_hash"] == ref["trace_hash"]
     assert "running without --secure" not in logs
+
+
+def test_the_image_runs_as_a_user_and_holds_no_installer_or_wheels(image):
+    def sh(cmd: str) -> str:
+        out = subprocess.run(["docker", "run", "--rm", "--entrypoint", "sh", "swarmactors:latest", "-c", cmd],
+                             capture_output=True, text=True, timeout=120)
+        assert out.returncode == 0, out.stderr
+        return out.stdout.strip()
+
+    assert sh("id -u; id -g") == "1000\n1000"
+    assert sh("ls /tmp/wheels 2>/dev/null | wc -l; command -v pip gcc cc | wc -l") == "0\n0"
+    assert sh("find /opt/swarmactors -type d -name tests -path '*/site-packages/*' | wc -l") == "0"
+    assert sh("swarmactors --version").startswith("swarmactors ")
