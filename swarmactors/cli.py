@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import json
 import logging
 import os
@@ -96,6 +97,7 @@ def build_parser() -> argparse.ArgumentParser:
     chk.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     chk.add_argument("--cluster", metavar="tcp://HOST:8786",
                      help="run the cases on this Dask scheduler's workers (docs/scaling.md)")
+    _cluster_certs_arg(chk)
     chk.add_argument("--json", type=Path, metavar="OUT", help="write the results as JSON")
     chk.add_argument("--junit", type=Path, metavar="OUT", help="write JUnit XML")
     chk.add_argument("--out", type=Path, default=Path("out/check"), help="where cases write their runs")
@@ -152,10 +154,20 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument("--cluster", metavar="tcp://HOST:8786",
                        help="run the trials on this Dask scheduler's workers instead of local processes "
                             "(docs/scaling.md)")
+    _cluster_certs_arg(sweep)
+    certs = sub.add_parser("cluster-certs", help="create the CA and the certificate of a Dask cluster with TLS")
+    certs.add_argument("directory", type=Path, help="where ca.pem, cluster.pem and cluster.key go (kept if there)")
+    certs.add_argument("--name", action="append", default=[], help="another name the certificate is valid for")
     schedule_cli.add_parser(sub)
     export_cli.add_parser(sub)  # swarmactors export RUN (issue 26)
     newproject.add_parser(sub)  # swarmactors new NAME (issue 26)
     return p
+
+
+def _cluster_certs_arg(sp) -> None:
+    sp.add_argument("--cluster-certs", type=Path, metavar="DIR",
+                    help="with --cluster tls://…: the directory of ca.pem, cluster.pem and cluster.key "
+                         "(swarmactors cluster-certs DIR; default $SWARMACTORS_CLUSTER_CERTS)")
 
 
 def _server_args(sp, port: str, host: str) -> None:
@@ -187,7 +199,8 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
     try:
-        return _main(args)
+        with _cluster_certs(getattr(args, "cluster_certs", None)):
+            return _main(args)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
@@ -199,6 +212,23 @@ def main(argv: list[str] | None = None) -> int:
         return code
 
 
+@contextlib.contextmanager
+def _cluster_certs(folder: Path | None):
+    """``--cluster-certs DIR`` as ``$SWARMACTORS_CLUSTER_CERTS`` (read by ``swarmactors.cluster``) for one command."""
+    if folder is None:
+        yield
+        return
+    before = os.environ.get("SWARMACTORS_CLUSTER_CERTS")
+    os.environ["SWARMACTORS_CLUSTER_CERTS"] = str(folder)
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ["SWARMACTORS_CLUSTER_CERTS"]
+        else:
+            os.environ["SWARMACTORS_CLUSTER_CERTS"] = before
+
+
 def _one_line(exc: BaseException) -> str:
     text = str(exc).strip().splitlines()
     return f"{exc.__class__.__name__}: {text[0] if text else ''}".rstrip(": ")
@@ -208,6 +238,14 @@ def _main(args) -> int:
     err = Console(stderr=True, no_color=not sys.stderr.isatty(), soft_wrap=True)
     _user_modules_importable(getattr(args, "scenario", None))
     try:
+        if args.command == "list":
+            return _list(args.what)
+        if args.command == "cluster-certs":
+            from transport.security import cluster_files
+
+            folder = cluster_files(args.directory, args.name)
+            print(f"{folder}: ca.pem, cluster.pem and cluster.key for --cluster tls://… (docs/scaling.md)")
+            return EXIT_OK
         if args.command == "list":
             return _list(args.what)
         if args.command == "robots":

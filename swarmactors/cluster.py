@@ -60,18 +60,44 @@ def scheduler_address(text: str) -> str:
     scheme, _, rest = address.partition("://")
     host, _, port = rest.rpartition(":")
     if scheme not in ("tcp", "tls") or not host or not port.isdigit():
-        raise ValueError(f"--cluster {text!r}: expected tcp://HOST:PORT (a Dask scheduler, e.g. tcp://10.0.0.5:8786)")
+        raise ValueError(f"--cluster {text!r}: expected tcp://HOST:PORT or tls://HOST:PORT (a Dask scheduler, e.g. "
+                         "tcp://10.0.0.5:8786)")
     return address
 
 
-def connect(text: str, timeout: float | None = None):
+def tls_security(address: str, certs: str | Path | None = None):
+    """Dask's ``Security`` for a ``tls://`` scheduler: the CA and ``cluster.pem``/``.key`` of ``certs``.
+
+    ``certs`` defaults to ``$SWARMACTORS_CLUSTER_CERTS`` (what ``--cluster-certs DIR`` sets); None for ``tcp://``.
+    ``ValueError`` (exit 2) naming what is missing.
+    """
+    if not address.startswith("tls://"):
+        return None
+    from distributed.security import Security
+
+    folder = certs or os.environ.get("SWARMACTORS_CLUSTER_CERTS")
+    if not folder:
+        raise ValueError(f"--cluster {address}: a tls:// scheduler needs --cluster-certs DIR (the directory with "
+                         "ca.pem, cluster.pem and cluster.key: docs/scaling.md)")
+    folder = Path(folder)
+    for name in ("ca.pem", "cluster.pem", "cluster.key"):
+        if not (folder / name).is_file():
+            raise ValueError(f"--cluster-certs {folder}: no {name} there (swarmactors cluster-certs {folder} "
+                             "creates them)")
+    return Security(tls_ca_file=str(folder / "ca.pem"), tls_client_cert=str(folder / "cluster.pem"),
+                    tls_client_key=str(folder / "cluster.key"), require_encryption=True)
+
+
+def connect(text: str, timeout: float | None = None, certs: str | Path | None = None):
     """A ``distributed.Client`` of the scheduler at ``text``; ``ClusterError`` naming the address if unreachable.
 
-    ``timeout`` defaults to ``$SWARMACTORS_CLUSTER_TIMEOUT`` seconds, else ``CONNECT_TIMEOUT_S``.
+    ``timeout`` defaults to ``$SWARMACTORS_CLUSTER_TIMEOUT`` seconds, else ``CONNECT_TIMEOUT_S``; a ``tls://``
+    address uses the certificates of ``certs`` (``tls_security``).
     """
     from distributed import Client
 
     address = scheduler_address(text)
+    security = tls_security(address, certs)
     if timeout is None:
         try:
             timeout = float(os.environ.get("SWARMACTORS_CLUSTER_TIMEOUT", CONNECT_TIMEOUT_S))
@@ -79,7 +105,7 @@ def connect(text: str, timeout: float | None = None):
             raise ValueError(f"SWARMACTORS_CLUSTER_TIMEOUT={os.environ['SWARMACTORS_CLUSTER_TIMEOUT']!r}: "
                              "expected seconds") from None
     try:
-        client = Client(address, timeout=timeout, set_as_default=False)
+        client = Client(address, timeout=timeout, set_as_default=False, security=security)
     except (OSError, TimeoutError) as exc:
         raise ClusterError(f"cannot reach the Dask scheduler at {address} within {timeout:g} s ({exc})") from None
     if not client.scheduler_info().get("workers"):

@@ -213,8 +213,11 @@ def test_a_sweep_file_is_the_sweep_of_its_options(tmp_path):
 
 @pytest.mark.docker
 @pytest.mark.slow
-def test_compose_cluster_profile_runs_a_sweep_submitted_from_the_host(scenario, tmp_path):
-    """docker/compose.yaml --profile cluster: a scheduler and 2 worker containers; the same CSV as the local pool."""
+def test_compose_cluster_profile_runs_a_sweep_submitted_from_the_host(scenario, tmp_path, capsys, monkeypatch):
+    """docker/compose.yaml --profile cluster: a scheduler and 2 workers over mutual TLS; the same CSV as locally.
+
+    A client without the cluster's certificate, or with another CA's, is refused (exit 3).
+    """
     import socket
     import uuid
 
@@ -228,27 +231,43 @@ def test_compose_cluster_profile_runs_a_sweep_submitted_from_the_host(scenario, 
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    env = {**os.environ, "DASK_PORT": str(port)}
+    certs = tmp_path / "certs"
+    certs.mkdir()
+    certs.chmod(0o777)  # the containers' user (1000) writes the certificates there
+    env = {**os.environ, "DASK_PORT": str(port), "CLUSTER_CERTS": str(certs)}
     base = [*compose, "-p", f"sc{uuid.uuid4().hex[:8]}", "-f", str(repo / "docker" / "compose.yaml"),
             "--profile", "cluster"]
     grid = ["--grid", "run.processes=0,2", "--grid", "radio.loss=0,0.3", "--trials", "1"]
+    address = f"tls://127.0.0.1:{port}"
     try:
         up = subprocess.run([*base, "up", "-d", "--scale", "worker=2", "scheduler", "worker"], env=env,
                             capture_output=True, text=True, timeout=300)
         assert up.returncode == 0, up.stderr
         from distributed import Client
 
+        from swarmactors.cluster import tls_security
+
         deadline = time.monotonic() + 120
         while True:  # the published port answers before the scheduler inside does
             try:
-                with Client(f"tcp://127.0.0.1:{port}", timeout=10) as client:
+                with Client(address, timeout=10, security=tls_security(address, certs)) as client:
                     client.wait_for_workers(2, timeout=120)
                 break
-            except OSError:
+            except (OSError, ValueError):  # ValueError: the certificates are not written yet
                 assert time.monotonic() < deadline, "the compose scheduler never answered"
                 time.sleep(1)
-        assert main(["sweep", str(scenario), *grid, "--cluster", f"tcp://127.0.0.1:{port}",
+        assert main(["sweep", str(scenario), *grid, "--cluster", address, "--cluster-certs", str(certs),
                      "--out", str(tmp_path / "compose"), "--quiet"]) == 0
+        monkeypatch.setenv("SWARMACTORS_CLUSTER_TIMEOUT", "3")
+        capsys.readouterr()
+        assert main(["sweep", str(scenario), "--cluster", f"tcp://127.0.0.1:{port}", "--out",
+                     str(tmp_path / "plain"), "--quiet"]) == 3  # plain TCP: the TLS handshake fails
+        from transport.security import cluster_files
+
+        other = cluster_files(tmp_path / "other")  # certificates of another CA
+        assert main(["sweep", str(scenario), "--cluster", address, "--cluster-certs", str(other), "--out",
+                     str(tmp_path / "other-ca"), "--quiet"]) == 3
+        assert "cannot reach the Dask scheduler" in capsys.readouterr().err
     finally:
         subprocess.run([*base, "down", "--remove-orphans", "-t", "2"], env=env, capture_output=True, timeout=120)
     assert main(["sweep", str(scenario), *grid, "--workers", "2", "--out", str(tmp_path / "local"), "--quiet"]) == 0
@@ -369,3 +388,31 @@ def test_a_sweep_of_a_trial_function_is_checked_before_it_starts(tmp_path, capsy
     assert main(["sweep", str(spec), "--quiet", "--clock", "realtime", "--out", "o"]) == 2
     assert "has no scenario" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+def test_cluster_certificates_and_what_a_tls_address_needs(tmp_path, capsys, monkeypatch):
+    from cryptography import x509
+
+    from swarmactors.cluster import tls_security
+
+    assert main(["cluster-certs", str(tmp_path / "c"), "--name", "dask.example"]) == 0
+    folder = tmp_path / "c"
+    ca = x509.load_pem_x509_certificate((folder / "ca.pem").read_bytes())
+    cert = x509.load_pem_x509_certificate((folder / "cluster.pem").read_bytes())
+    cert.verify_directly_issued_by(ca)  # signed by the run's CA (raises otherwise)
+    names = cert.extensions.get_extension_for_class(x509.SubjectAlternativeName).value
+    assert {"scheduler", "localhost", "dask.example"} <= set(names.get_values_for_type(x509.DNSName))
+    assert (folder / "cluster.key").stat().st_mode & 0o777 == 0o600
+    before = (folder / "cluster.pem").read_bytes()
+    assert main(["cluster-certs", str(folder)]) == 0 and (folder / "cluster.pem").read_bytes() == before  # kept
+    assert tls_security("tcp://h:1", folder) is None
+    sec = tls_security("tls://h:1", folder)
+    assert sec.require_encryption and sec.tls_client_cert == str(folder / "cluster.pem")
+    monkeypatch.delenv("SWARMACTORS_CLUSTER_CERTS", raising=False)
+    (tmp_path / "s.toml").write_text(SCENARIO)
+    capsys.readouterr()
+    assert main(["sweep", str(tmp_path / "s.toml"), "--cluster", "tls://127.0.0.1:9", "--quiet"]) == 2
+    assert "needs --cluster-certs DIR" in capsys.readouterr().err
+    (folder / "cluster.key").unlink()
+    assert main(["check", "flooding", "--cluster", "tls://127.0.0.1:9", "--cluster-certs", str(folder)]) == 2
+    assert f"--cluster-certs {folder}: no cluster.key there" in capsys.readouterr().err

@@ -10,6 +10,9 @@
   all, shared by identical replicas.
 
 Hosts get ``ca.pem`` and ``host.credential`` (``swarmactors robots --secure DIR``).
+
+``cluster_files(DIR)`` adds ``cluster.pem`` / ``cluster.key``: one certificate signed by the same CA that the
+Dask scheduler, its workers and the submitting client all present (mutual TLS, ``--cluster tls://…``).
 The world's Zenoh access-control rules let that credential only query
 ``world/join`` and ``up/*``, publish under ``up/*`` and subscribe under
 ``down/*`` (and hold a liveliness token) - never publish on ``down/*``,
@@ -146,4 +149,50 @@ def ensure_files(directory: Path, names: list[str] = ()) -> Path:
         path.write_bytes(data)
         if name.endswith(".key") or name in ("users.txt", "host.credential"):
             os.chmod(path, 0o600)
+    return directory
+
+
+CLUSTER_NAMES = ("scheduler", "localhost", "127.0.0.1")
+
+
+def cluster_files(directory: Path, names: list[str] = ()) -> Path:
+    """The CA (``ensure_files``) and ``cluster.pem``/``cluster.key`` for a Dask cluster's mutual TLS, unless present.
+
+    One certificate for the scheduler, the workers and the client (Dask checks the CA, not host names); valid
+    for ``CLUSTER_NAMES`` and ``names``. Written key last and by rename, so a reader waiting for ``cluster.key``
+    never sees half a pair.
+    """
+    from cryptography import x509
+    from cryptography.hazmat.primitives import hashes, serialization
+    from cryptography.hazmat.primitives.asymmetric import ec
+    from cryptography.x509.oid import NameOID
+
+    ensure_files(directory)
+    if (directory / "cluster.pem").exists() and (directory / "cluster.key").exists():
+        return directory
+    ca = x509.load_pem_x509_certificate((directory / "ca.pem").read_bytes())
+    ca_key = serialization.load_pem_private_key((directory / "ca.key").read_bytes(), password=None)
+    now = datetime.datetime.now(datetime.timezone.utc)
+    alt = []
+    for name in [*CLUSTER_NAMES, *names]:
+        try:
+            alt.append(x509.IPAddress(ipaddress.ip_address(name)))
+        except ValueError:
+            alt.append(x509.DNSName(name))
+    key = ec.generate_private_key(ec.SECP256R1())
+    cert = (x509.CertificateBuilder()
+            .subject_name(x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, "swarmactors cluster")]))
+            .issuer_name(ca.subject).public_key(key.public_key()).serial_number(x509.random_serial_number())
+            .not_valid_before(now - datetime.timedelta(minutes=5)).not_valid_after(now + datetime.timedelta(days=365))
+            .add_extension(x509.SubjectAlternativeName(alt), critical=False)
+            .add_extension(x509.BasicConstraints(ca=False, path_length=None), critical=True)
+            .sign(ca_key, hashes.SHA256()))
+    for name, data, mode in (("cluster.pem", cert.public_bytes(serialization.Encoding.PEM), 0o644),
+                             ("cluster.key", key.private_bytes(serialization.Encoding.PEM,
+                                                               serialization.PrivateFormat.PKCS8,
+                                                               serialization.NoEncryption()), 0o600)):
+        tmp = directory / f".{name}.tmp"
+        tmp.write_bytes(data)
+        os.chmod(tmp, mode)
+        tmp.replace(directory / name)
     return directory
