@@ -101,7 +101,7 @@ def test_a_worker_killed_mid_trial_is_rescheduled_and_each_row_appears_once(clus
     address, client = cluster
     out = tmp_path / "killed"
     slow = scenario.parent / "cl-slow.toml"
-    slow.write_text(SCENARIO.replace("ticks = 12", "ticks = 400"))
+    slow.write_text(SCENARIO.replace("ticks = 12", "ticks = 200"))
     cmd = [sys.executable, "-m", "swarmactors", "sweep", str(slow), "--grid", "radio.loss=0,0.2", "--trials", "1",
            "--cluster", address, "--out", str(out), "--json"]
     sweep = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -416,3 +416,48 @@ def test_cluster_certificates_and_what_a_tls_address_needs(tmp_path, capsys, mon
     (folder / "cluster.key").unlink()
     assert main(["check", "flooding", "--cluster", "tls://127.0.0.1:9", "--cluster-certs", str(folder)]) == 2
     assert f"--cluster-certs {folder}: no cluster.key there" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_the_scheduler_going_away_mid_sweep_exits_3_with_a_resumable_csv(tmp_path):
+    """A scheduler killed while trials run: exit 3 naming it; the rows so far stay, and the sweep resumes."""
+    pytest.importorskip("distributed")
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    address = f"tcp://127.0.0.1:{port}"
+    dask = Path(sys.executable).with_name("dask")
+    scheduler = subprocess.Popen([str(dask), "scheduler", "--port", str(port), "--no-dashboard"],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    worker = subprocess.Popen([str(dask), "worker", address, "--nthreads", "1", "--no-dashboard"],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    scenario = tmp_path / "cl.toml"
+    scenario.write_text(SCENARIO)  # one worker thread: each trial's child takes seconds to start, rows come slowly
+    out = tmp_path / "s"
+    grid = ["--grid", "radio.loss=0,0.1,0.2", "--trials", "2"]
+    try:
+        sweep = subprocess.Popen([sys.executable, "-m", "swarmactors", "sweep", str(scenario), *grid, "--cluster",
+                                  address, "--out", str(out), "--quiet"], stdout=subprocess.PIPE,
+                                 stderr=subprocess.PIPE, text=True,
+                                 env={**os.environ, "SWARMACTORS_CLUSTER_TIMEOUT": "60"})
+        deadline = time.monotonic() + 120
+        while not (out / "trials.csv").exists() or not _rows(out / "trials.csv"):
+            assert time.monotonic() < deadline and sweep.poll() is None, sweep.communicate()
+            time.sleep(0.1)
+        scheduler.kill()
+        _, err = sweep.communicate(timeout=120)
+    finally:
+        for p in (scheduler, worker):
+            p.kill()
+            p.wait(30)
+    assert sweep.returncode == 3, err
+    assert f"lost the Dask scheduler at {address}" in err and "run the same command again" in err, err
+    done = _rows(out / "trials.csv")
+    assert 1 <= len(done) < 6 and all(not r["error"] for r in done)
+    assert main(["sweep", str(scenario), *grid, "--workers", "2", "--out", str(out), "--quiet"]) == 0
+    rows = _rows(out / "trials.csv")
+    assert len(rows) == 6 and len({(r["radio.loss"], r["trial"]) for r in rows}) == 6
+    assert [r for r in rows if (r["radio.loss"], r["trial"]) in {(d["radio.loss"], d["trial"]) for d in done}] \
+        == done  # the rows finished before the loss are kept as they were
