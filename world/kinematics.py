@@ -6,7 +6,8 @@ finite ``turn_rate`` (rad per second) is a unicycle: its heading turns towards
 the commanded direction by at most ``turn_rate * dt`` and it advances along the
 new heading by ``|v| * dt * max(0, cos(remaining error))``, so it never drives
 away from where it was told to go (Kobayashi et al. cap 0.03 units and 0.15 rad
-per timestep). Positions are kept inside the world's bounds.
+per timestep); in 3-D the unicycle turns and advances in the plane and keeps the step's vertical part. A robot
+that moves is kept inside the world's bounds (one that does not move is left where it is).
 
 Limits (issue 27): a velocity command must be finite and at most ``MAX_SPEED`` length units per second
 (whether or not its group has a cap; above the group's ``speed`` it is clipped to it); a position must stay
@@ -68,8 +69,10 @@ def integrate(
         err = np.angle(np.exp(1j * (want - heading[idx])))
         max_turn = turn_rate[idx] * dt
         turn = np.clip(err, -max_turn, max_turn)
+        turn[~np.any(s[:, :2] != 0.0, axis=1)] = 0.0  # a purely vertical step (3-D) does not turn the robot
         heading[idx] = np.angle(np.exp(1j * (heading[idx] + turn)))
-        length = np.linalg.norm(s, axis=1) * np.maximum(0.0, np.cos(err - turn))
+        # the turn and the advance are in the plane; a 3-D step keeps its vertical part, so |step| stays capped
+        length = np.linalg.norm(s[:, :2], axis=1) * np.maximum(0.0, np.cos(err - turn))
         s = s.copy()
         s[:, 0] = length * np.cos(heading[idx])
         s[:, 1] = length * np.sin(heading[idx])
@@ -80,6 +83,7 @@ def integrate(
         h = step[holonomic]
         nz = np.any(h[:, :2] != 0.0, axis=1)
         heading[idx[nz]] = np.arctan2(h[nz, 1], h[nz, 0])
-    pos[moving] += step
-    if bounds is not None:
-        np.clip(pos, bounds[0], bounds[1], out=pos)
+    moved = pos[moving] + step
+    if bounds is not None:  # only robots that move are kept inside: a robot standing still stays where it is
+        np.clip(moved, bounds[0], bounds[1], out=moved)
+    pos[moving] = moved

@@ -215,9 +215,6 @@ def test_holonomic_3d_caps_the_3d_speed(vel, speed, heading0, dt):
     assert np.linalg.norm(pos[0] - r["pos"]) <= speed * dt + TOL
 
 
-@pytest.mark.xfail(strict=True, reason="product bug: a 3-D unicycle advances |step| in the plane along its heading "
-                   "and keeps the vertical part of the step too, so it exceeds its speed and a purely vertical "
-                   "command also moves it horizontally")
 @pytest.mark.parametrize("vel", [[0.0, 0.0, 1.0], [1.0, 0.0, 1.0]])
 def test_unicycle_3d_respects_the_speed_cap(vel):
     r = {"pos": [0.0, 0.0, 0.0], "heading": 0.0, "vel": vel, "speed": 1.0, "turn_rate": 0.5, "alive": True}
@@ -225,9 +222,6 @@ def test_unicycle_3d_respects_the_speed_cap(vel):
     assert np.linalg.norm(pos[0]) <= 1.0 + TOL, pos[0]  # at most speed * dt
 
 
-@pytest.mark.xfail(strict=True, reason="product bug: bounds are applied to every robot, but only in ticks in which "
-                   "some robot moves; a robot placed outside the bounds (explicit positions are not checked "
-                   "against them) jumps inside when another robot moves, even if it is dead or stands still")
 def test_a_robot_that_does_not_move_keeps_its_position_whatever_the_others_do():
     still = {"pos": [5.0, 5.0], "heading": 0.0, "vel": [0.0, 0.0], "speed": 1.0, "turn_rate": math.inf, "alive": True}
     mover = {"pos": [1.0, 1.0], "heading": 0.0, "vel": [0.1, 0.0], "speed": 1.0, "turn_rate": math.inf, "alive": True}
