@@ -23,6 +23,11 @@ class Severance:
     def __bool__(self) -> bool:
         return bool(self.cuts or self.group)
 
+    def __eq__(self, other) -> bool:
+        return isinstance(other, Severance) and (self.cuts, self.group) == (other.cuts, other.group)
+
+    __hash__ = None
+
     def copy(self) -> Severance:
         other = Severance()
         other.cuts, other.group = set(self.cuts), dict(self.group)
