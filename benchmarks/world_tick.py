@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """The world's tick: CPU per delivery of the world process, this tree against a baseline commit, and scale.
 
-    python benchmarks/world_tick.py ab [--base e83c6c9] [--n 1000] [--repeats 5] [--out FILE]
+    python benchmarks/world_tick.py ab [--base e83c6c9] [--new COMMIT] [--n 1000] [--repeats 5] [--out FILE]
     python benchmarks/world_tick.py scale [--n 1000 10000] [--ticks 20] [--k 2] [--repeats 3] [--out FILE]
     python benchmarks/world_tick.py stages [--n 1000] [--ticks 30]
 
@@ -103,7 +103,7 @@ def loadavg() -> float:
 
 
 def ab(args) -> dict:
-    trees = {"base": unpack(args.base), "new": ROOT}
+    trees = {"base": unpack(args.base), "new": unpack(args.new) if args.new else ROOT}
     runs: dict[str, list[dict]] = {"base": [], "new": []}
     for i in range(args.repeats):
         for name in (("base", "new") if i % 2 == 0 else ("new", "base")):
@@ -114,7 +114,8 @@ def ab(args) -> dict:
                   f"  load {r['load']}", flush=True)
     med = {name: {k: statistics.median(r[k] for r in rs) for k in ("world_us", "robot_ticks_s")}
            for name, rs in runs.items()}
-    return {"base": args.base, "n": args.n, "ticks": [args.short, args.long], "repeats": args.repeats,
+    return {"base": args.base, "new": args.new or "working tree", "n": args.n, "ticks": [args.short, args.long],
+            "repeats": args.repeats,
             "median": med, "ratio_new_over_base": med["new"]["world_us"] / med["base"]["world_us"],
             "same_trace_hash": len({r["hash"] for rs in runs.values() for r in rs}) == 1, "runs": runs}
 
@@ -147,6 +148,7 @@ def main(argv: list[str] | None = None) -> int:
     sub = ap.add_subparsers(dest="what", required=True)
     a = sub.add_parser("ab")
     a.add_argument("--base", default="e83c6c9")
+    a.add_argument("--new", default=None, help="commit to compare (default: this working tree)")
     a.add_argument("--n", type=int, default=1000)
     a.add_argument("--short", type=int, default=10)
     a.add_argument("--long", type=int, default=50)
