@@ -16,7 +16,11 @@ from collections.abc import Iterator
 
 import numpy as np
 
-_PAYLOAD = np.arange(1, 9)  # byte positions after an integer's type byte
+# An integer's class, by where it falls among these bounds (side "right"): its type byte and payload size.
+_BOUNDS = np.array([-(1 << 31), -(1 << 15), -(1 << 7), -32, 128, 256, 1 << 16, 1 << 32], dtype=np.int64)
+_TYPE = np.array([0xD3, 0xD2, 0xD1, 0xD0, 0, 0xCC, 0xCD, 0xCE, 0xCF], dtype=np.uint8)  # 0: a fixint, no type byte
+_PAYLOAD = np.array([8, 4, 2, 1, 0, 1, 2, 4, 8], dtype=np.int64)
+_FIXINT = 4
 
 
 def _list_header(n: int) -> bytes:
@@ -27,42 +31,37 @@ def _list_header(n: int) -> bytes:
     return b"\xdd" + n.to_bytes(4, "big")
 
 
-def _ints(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each value's encoding as 9 byte slots (type byte, 8 big-endian bytes) and which slots it uses."""
-    n = len(v)
-    be = v.astype(">i8").view(np.uint8).reshape(n, 8)
-    neg = v < 0
-    k = np.select(
-        [(v >= -32) & (v < 128),
-         np.where(neg, v >= -(1 << 7), v < 1 << 8),
-         np.where(neg, v >= -(1 << 15), v < 1 << 16),
-         np.where(neg, v >= -(1 << 31), v < 1 << 32)],
-        [0, 1, 2, 4], 8)
-    tag = np.select([k == 1, k == 2, k == 4], [0xCC, 0xCD, 0xCE], 0xCF) + np.where(neg, 4, 0)
-    out = np.empty((n, 9), dtype=np.uint8)
-    out[:, 0] = np.where(k == 0, be[:, 7], tag)
-    out[:, 1:] = be
-    used = np.empty((n, 9), dtype=bool)
-    used[:, 0] = True
-    used[:, 1:] = _PAYLOAD[None, :] >= (9 - k)[:, None]
-    return out, used
-
-
 def packb(rows: np.ndarray) -> bytes:
     """The msgpack bytes of ``rows.tolist()`` for an (n, w) integer array, w < 16."""
     rows = np.asarray(rows, dtype=np.int64)
     n, w = rows.shape
     if n == 0:
         return _list_header(0)
-    buf = np.empty((n, 1 + 9 * w), dtype=np.uint8)
-    used = np.empty((n, 1 + 9 * w), dtype=bool)
-    buf[:, 0] = 0x90 | w
-    used[:, 0] = True
-    for c in range(w):
-        b, u = _ints(rows[:, c])
-        buf[:, 1 + 9 * c: 10 + 9 * c] = b
-        used[:, 1 + 9 * c: 10 + 9 * c] = u
-    return _list_header(n) + buf[used].tobytes()
+    v = rows.ravel()
+    cls = np.searchsorted(_BOUNDS, v, side="right")
+    k = _PAYLOAD[cls]
+    items = np.empty((n, w + 1), dtype=np.int64)  # each row: its header, then its values
+    items[:, 0] = 1
+    items[:, 1:] = (1 + k).reshape(n, w)
+    flat = items.ravel()
+    offsets = (np.cumsum(flat) - flat).reshape(n, w + 1)
+    out = np.empty(int(offsets[-1, -1] + flat[-1]), dtype=np.uint8)
+    out[offsets[:, 0]] = 0x90 | w
+    at = offsets[:, 1:].ravel()  # where each value's first byte goes
+    first = _TYPE[cls]
+    small = cls == _FIXINT
+    first[small] = v[small] & 0xFF
+    out[at] = first
+    big = np.flatnonzero(~small)
+    if big.size:
+        kb, where = k[big], at[big]
+        be = v[big].astype(">i8").view(np.uint8).reshape(-1, 8)
+        for j in range(1, 9):  # the j-th payload byte is big-endian byte 8 - k + j - 1
+            m = np.flatnonzero(kb >= j)
+            if not m.size:
+                break
+            out[where[m] + j] = be[m, 8 - kb[m] + j - 1]
+    return _list_header(n) + out.tobytes()
 
 
 class IntRows:

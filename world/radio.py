@@ -6,13 +6,15 @@ at the send tick:
 * range - a disk of the *transmitter's* radius, so heterogeneous ranges give
   directed links; a broadcast reaches every alive robot in range except the
   sender and the frame's ``exclude`` list, an addressed frame only its
-  destination and only if in range (else dropped as ``range``);
+  destination and only if in range (else dropped as ``range``); both by the
+  rule of world/sensing.py (squared distance <= range * range);
 * cuts and partitions - a frame over a cut link or between partition groups is
   dropped as ``cut``;
 * occlusion - with ``radio.occlusion``, a frame to a receiver in range that an
   obstacle hides from the sender (world/space.py) is dropped as ``occluded``;
-* bandwidth - an optional cap of bytes per robot per tick; frames past it, in
-  sending order, are dropped as ``bandwidth`` for every receiver;
+* bandwidth - an optional cap of bytes per robot per tick; every frame sent
+  counts, heard or not; frames past it, in sending order, are dropped as
+  ``bandwidth`` for every receiver;
 * loss - per (frame, receiver), from the counter-based generator:
   ``bernoulli`` loses with probability ``loss``; ``distance`` is Swarm Relays
   Sec. III-A: the receiver decodes with e = 1 when d < delta, exp(-delta*d/Z)
@@ -213,9 +215,9 @@ class Medium:
         ``table.nbrs``, marks the links an obstacle blocks (None: none). In order: a broadcast's candidates
         are its sender's reach minus its ``exclude`` list, the hidden ones dropped as ``occluded``; an
         addressed frame's only candidate is its destination, dropped as ``dead`` (no such robot, or dead),
-        ``range`` (farther than the sender's range) or ``occluded``; a frame with candidates is charged
-        to its sender's bandwidth budget for the tick, in sending order, and dropped for all of them as
-        ``bandwidth`` past the cap; then severed links (``cut``), then loss.
+        ``range`` (not in the sender's reach: the broadcast's rule) or ``occluded``; every frame is charged
+        to its sender's bandwidth budget for the tick, in sending order, and the candidates of a frame past
+        the cap are dropped as ``bandwidth``; then severed links (``cut``), then loss.
         """
         cfg = self.config
         n = len(alive)
@@ -248,31 +250,30 @@ class Medium:
             h = hidden[idx]
             drop(pf[h], pd[h], "occluded")
             pf, pd = pf[~h], pd[~h]
-        # addressed frames: one candidate each
+        # addressed frames: one candidate each, in range when it is in the sender's reach (the same rule)
         u_ids = np.flatnonzero(~bcast)
         if u_ids.size:
-            uf, ud = [], []
-            for k in u_ids.tolist():
-                f = frames[k]
-                d = f.dst
-                if not (0 <= d < n) or not alive[d]:
-                    drop([k], [d], "dead")
-                elif np.linalg.norm(positions[d] - positions[f.src]) > ranges[f.src]:
-                    drop([k], [d], "range")
-                elif hidden is not None and self._hidden(table, hidden, f.src, d):
-                    drop([k], [d], "occluded")
-                else:
-                    uf.append(k)
-                    ud.append(d)
-            if uf:
-                pf = np.concatenate([pf, np.array(uf, dtype=np.int64)])
-                pd = np.concatenate([pd, np.array(ud, dtype=np.int64)])
-        # bandwidth: frames with receivers charge their sender, in sending order
-        if cfg.bandwidth and pf.size:
-            charged = np.flatnonzero(np.bincount(pf, minlength=nf) > 0)
-            over = self._charge(src[charged], frames, charged)
-            if over.size:
-                lost = np.isin(pf, charged[over])
+            ud = np.fromiter((frames[k].dst for k in u_ids.tolist()), np.int64, len(u_ids))
+            dead = (ud < 0) | (ud >= n)
+            dead[~dead] = ~alive[ud[~dead]]
+            drop(u_ids[dead], ud[dead], "dead")
+            u_ids, ud = u_ids[~dead], ud[~dead]
+            where = table.find(src[u_ids], ud)
+            far = where < 0
+            drop(u_ids[far], ud[far], "range")
+            u_ids, ud, where = u_ids[~far], ud[~far], where[~far]
+            if hidden is not None:
+                h = hidden[where]
+                drop(u_ids[h], ud[h], "occluded")
+                u_ids, ud = u_ids[~h], ud[~h]
+            pf = np.concatenate([pf, u_ids])
+            pd = np.concatenate([pd, ud])
+        # bandwidth: every frame sent charges its sender, in sending order
+        if cfg.bandwidth and nf:
+            everyone = np.arange(nf, dtype=np.int64)
+            over = self._charge(src, frames, everyone)
+            if over.size and pf.size:
+                lost = np.isin(pf, over)
                 drop(pf[lost], pd[lost], "bandwidth")
                 pf, pd = pf[~lost], pd[~lost]
         ps = src[pf]
@@ -289,12 +290,6 @@ class Medium:
         out_d.append(pd)
         out_c.append(np.full(len(pf), -1, dtype=np.int64))
         return Decision(np.concatenate(out_f), np.concatenate(out_d), np.concatenate(out_c), src, seq)
-
-    @staticmethod
-    def _hidden(table: Reach, hidden: np.ndarray, src: int, dst: int) -> bool:
-        a, b = table.indptr[src], table.indptr[src + 1]
-        k = a + int(np.searchsorted(table.nbrs[a:b], dst))
-        return bool(k < b and table.nbrs[k] == dst and hidden[k])
 
     def _charge(self, senders: np.ndarray, frames: list[Outgoing], which: np.ndarray) -> np.ndarray:
         """Add the bodies of frames ``which`` (sent by ``senders``, in order) to the budget; those past the cap."""

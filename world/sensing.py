@@ -40,6 +40,19 @@ class Reach:
         """The robot whose row each entry of ``nbrs`` is in."""
         return np.repeat(np.arange(self.n, dtype=np.int64), np.diff(self.indptr))
 
+    def find(self, src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+        """For each pair, the index in ``nbrs`` of ``dst`` in ``src``'s row, or -1 when it is not there."""
+        src = np.asarray(src, dtype=np.int64)
+        dst = np.asarray(dst, dtype=np.int64)
+        stride = self.n + 1
+        keys = self.owners() * stride + self.nbrs  # ascending: rows in order, each row sorted
+        ok = (src >= 0) & (src < self.n) & (dst >= 0) & (dst < self.n)
+        q = np.where(ok, src * stride + dst, -1)
+        j = np.minimum(np.searchsorted(keys, q), max(len(keys) - 1, 0))
+        found = ok & (len(keys) > 0)
+        found[found] = keys[j[found]] == q[found]
+        return np.where(found, j, -1)
+
     def as_dict(self, alive_ids: np.ndarray) -> dict[int, np.ndarray]:
         """``{i: neighbours}`` for the alive robots."""
         return {i: self.nbrs[self.indptr[i]: self.indptr[i + 1]] for i in alive_ids.tolist()}

@@ -5,10 +5,10 @@ world/radio.py's docstring:
 
 * reach: robot j hears robot i when j != i, both alive, and dx*dx + dy*dy <= r_i * r_i (directed ranges);
 * a broadcast's candidates are the sender's reach minus its exclude list; the ones an obstacle hides are dropped
-  as ``occluded``; an addressed frame is dropped as ``dead`` (no such robot, or dead), ``range`` (farther than
-  the sender's range, by the Euclidean norm) or ``occluded`` (in reach but hidden);
-* a frame with candidates adds its body's length to its sender's bytes this tick, in sending order, and is
-  dropped for all of them as ``bandwidth`` past the cap;
+  as ``occluded``; an addressed frame is dropped as ``dead`` (no such robot, or dead), ``range`` (out of the
+  sender's reach, by the same squared-distance rule) or ``occluded`` (in reach but hidden);
+* every frame adds its body's length to its sender's bytes this tick, in sending order, whether or not it has
+  candidates; a frame past the cap is dropped as ``bandwidth`` for all its candidates;
 * then severed links (cuts, partitions) are dropped as ``cut``;
 * then loss: the decoding probability is 1 - loss (``bernoulli``), or the Gilbert-Elliott pair state's
   (written out here as a per-pair Markov chain advanced in closed form), times the distance model's e when
@@ -96,14 +96,12 @@ class Reference:
                 d = f.dst
                 if not (0 <= d < n) or not alive[d]:
                     out[key(d)] = "dead"
-                elif np.linalg.norm(np.array(pos[d]) - np.array(pos[f.src])) > ranges[f.src]:
+                elif not self.hears(pos, ranges, alive, f.src, d):
                     out[key(d)] = "range"
-                elif self.hears(pos, ranges, alive, f.src, d) and frozenset((f.src, d)) in blocked:
+                elif frozenset((f.src, d)) in blocked:
                     out[key(d)] = "occluded"
                 else:
                     receivers.append(d)
-            if not receivers:
-                continue
             if cfg.get("bandwidth"):
                 self.used[f.src] = self.used.get(f.src, 0) + len(f.body)
                 if self.used[f.src] > cfg["bandwidth"]:
