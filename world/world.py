@@ -569,12 +569,12 @@ class World:
         batches = self._due.pop(tick, [])
         if not batches:
             return {}
-        frames: list[Outgoing] = []
+        entries: list[tuple[Outgoing, int]] = []  # (frame, send tick), one per frame, shared by its receivers
         parts = []
         for fs, out, sent_tick in batches:
-            parts.append((out.dst, out.src[out.frame], out.seq[out.frame], out.frame + len(frames),
+            parts.append((out.dst, out.src[out.frame], out.seq[out.frame], out.frame + len(entries),
                           np.full(len(out.frame), sent_tick, dtype=np.int64)))
-            frames.extend(fs)
+            entries.extend([(f, sent_tick) for f in fs])
         dst, src, seq, ref, sent = (np.concatenate(col) for col in zip(*parts, strict=True))
         order = np.lexsort((seq, src, dst))
         dst, src, seq, ref, sent = dst[order], src[order], seq[order], ref[order], sent[order]
@@ -586,7 +586,10 @@ class World:
         self.record.delivered_arrays(src, seq, dst, sent)
         if not len(dst):
             return {}
-        items = list(zip(np.array(frames, dtype=object)[ref].tolist(), sent.tolist(), strict=True))
+        table = np.empty(len(entries), dtype=object)
+        for k, entry in enumerate(entries):  # element by element: numpy would unpack the pairs
+            table[k] = entry
+        items = table[ref].tolist()
         bounds = np.flatnonzero(np.r_[True, dst[1:] != dst[:-1], True]).tolist()
         ids = dst[bounds[:-1]].tolist()
         return {rid: items[a:b] for rid, a, b in zip(ids, bounds[:-1], bounds[1:], strict=True)}
