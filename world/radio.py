@@ -113,9 +113,13 @@ class Decision:
 
 
 def _pairs(indptr: np.ndarray, rows: np.ndarray, frame_ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Expand CSR rows ``rows`` (one per frame in ``frame_ids``): (frame id, index into the CSR data) per pair."""
-    starts = indptr[rows]
-    counts = indptr[rows + 1] - starts
+    """Expand CSR rows ``rows`` (one per frame in ``frame_ids``): (frame id, index into the CSR data) per pair.
+
+    A row past the table (a robot added after the tick's reach was computed) is empty.
+    """
+    last = len(indptr) - 1
+    starts = indptr[np.minimum(rows, last)]
+    counts = indptr[np.minimum(rows + 1, last)] - starts
     total = int(counts.sum())
     if total == 0:
         empty = np.zeros(0, dtype=np.int64)
