@@ -111,10 +111,15 @@ def connectivity(records: list[dict], ranges: dict[int, float], path: Path, name
     from scipy.sparse.csgraph import connected_components
 
     from swarmactors.scenario import mutual_links
+    from transport.severance import Severance
 
     ticks, largest, components, alive = [], [], [], []
-    for i in _sampled(records):
-        rec = records[i]
+    links, sampled = Severance(), set(_sampled(records))  # cuts and partitions replayed from the events
+    for i, rec in enumerate(records):
+        for ev in rec.get("ev", ()):
+            links.apply(ev)
+        if i not in sampled:
+            continue
         rows = rec.get("pos", [])
         ticks.append(rec["t"])
         alive.append(len(rows))
@@ -126,6 +131,8 @@ def connectivity(records: list[dict], ranges: dict[int, float], path: Path, name
         xy = np.array([r[1:] for r in rows], dtype=float)
         rng = np.array([ranges.get(r, 1.0) for r in ids])
         pairs = np.array(mutual_links(xy, rng, space), dtype=int).reshape(-1, 2)
+        if links and len(pairs):
+            pairs = pairs[~links.mask(np.array(ids)[pairs[:, 0]], np.array(ids)[pairs[:, 1]])]
         g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])) if len(pairs) else
                        (np.zeros(0), (np.zeros(0, int), np.zeros(0, int))), shape=(len(ids), len(ids)))
         k, labels = connected_components(g, directed=False)

@@ -60,6 +60,9 @@ def build_parser() -> argparse.ArgumentParser:
         sp.add_argument("scenario", help="scenario TOML file")
         sp.add_argument("--seed", type=int, help="override run.seed")
         sp.add_argument("--clock", choices=["lockstep", "realtime"], help="override run.clock")
+        sp.add_argument("--trace", choices=["off", "summary", "full"],
+                        help="override run.trace: no trace file, one without the per-delivery rows, or all "
+                             "(the trace hash is the same in every mode)")
         sp.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                         help="override any scenario key (repeatable), e.g. radio.loss=0.1 or robots.0.count=50")
         sp.add_argument("--out", type=Path, help=out_help)
@@ -292,6 +295,8 @@ def _load(args) -> dict:
         overrides.append(f"run.seed={args.seed}")
     if args.clock is not None:
         overrides.append(f'run.clock="{args.clock}"')
+    if args.trace is not None:
+        overrides.append(f'run.trace="{args.trace}"')
     if getattr(args, "processes", None) is not None:
         if args.processes < 0:
             raise UsageError(f"--processes {args.processes}: must be >= 0")

@@ -144,13 +144,14 @@ async def run_world(
     try:
         out_dir.mkdir(parents=True, exist_ok=True)  # noqa: ASYNC240 — one quick mkdir before the world opens
         keys = Keys(run_id)
-        trace_path = out_dir / "trace.msgpack" if sc["run"]["trace"] else None
+        mode = trace_mode(sc["run"]["trace"])
         compression = sc["run"].get("trace_compression", "none")
         writer = TraceWriter(
-            trace_path,
+            out_dir / "trace.msgpack",
             {"run_id": run_id, "clock": sc["run"]["clock"], "seed": sc["run"]["seed"],
              "pos_digits": POS_DIGITS, "scenario": to_jsonable(sc)},
             compression=None if compression == "none" else compression,
+            mode=mode,
         )
         procs: list[multiprocessing.Process] = []
         watchdog_s = float(sc["run"].get("watchdog_s", 10.0))
@@ -197,6 +198,13 @@ async def run_world(
                 loop.remove_signal_handler(signum)
             except (RuntimeError, ValueError):
                 pass
+
+
+def trace_mode(value: bool | str) -> str:
+    """``run.trace`` as a trace mode: true is ``full``, false is ``off`` (swarmactors/trace.py)."""
+    if isinstance(value, bool):
+        return "full" if value else "off"
+    return value
 
 
 def judge(result: Result, specs: list[dict]) -> list[dict]:

@@ -26,6 +26,8 @@ import numpy as np
 if TYPE_CHECKING:  # networkx is the oracle's: imported where a graph is built, never by a robot host
     import networkx as nx
 
+    from transport.severance import Severance
+
 
 def package_version() -> dict:
     """The installed package version and, when known, the git commit of the source."""
@@ -206,29 +208,33 @@ class Result:
         """Each robot's radio range (robots added during the run included)."""
         return {rid: r["range"] for rid, r in self.robots.items()}
 
-    def severed_at(self, tick: int) -> tuple[set[frozenset], dict[int, int]]:
+    def severed_at(self, tick: int) -> Severance:
         """Cut links and partition groups in force at ``tick``, replayed from the trace's events."""
-        cuts: set[frozenset] = set()
-        group: dict[int, int] = {}
+        from transport.severance import Severance
+
+        links = Severance()
         for rec in self.records():
             if rec["t"] > tick:
                 break
-            cuts, group = _sever(rec, cuts, group)
-        return cuts, group
+            for ev in rec.get("ev", ()):
+                links.apply(ev)
+        return links
 
-    def last_state(self) -> tuple[dict, tuple[set[frozenset], dict[int, int]]]:
+    def last_state(self) -> tuple[dict, Severance]:
         """The last tick record and the cuts and partition groups in force at it, in one streamed pass."""
-        cuts: set[frozenset] = set()
-        group: dict[int, int] = {}
+        from transport.severance import Severance
+
+        links = Severance()
         last = None
         for last in self.records():  # noqa: B007 — the loop keeps the last one
-            cuts, group = _sever(last, cuts, group)
+            for ev in last.get("ev", ()):
+                links.apply(ev)
         if last is None:
             raise KeyError("the trace has no tick")
-        return last, (cuts, group)
+        return last, links
 
     def graph_at(self, tick: int, directed: bool = False, rec: dict | None = None,
-                 severed: tuple[set[frozenset], dict[int, int]] | None = None) -> nx.Graph:
+                 severed: Severance | None = None) -> nx.Graph:
         """The true radio graph at ``tick``.
 
         Alive robots, links in range (mutual unless ``directed``: an edge a -> b when b is within a's range),
@@ -241,7 +247,7 @@ class Result:
         from scipy.spatial import cKDTree
 
         rec = self.record(tick) if rec is None else rec  # ``rec``, ``severed``: when the caller has them
-        cuts, group = self.severed_at(tick) if severed is None else severed
+        links = self.severed_at(tick) if severed is None else severed  # transport/severance.py, as the radio
         ranges = self.ranges()
         ids = [row[0] for row in rec.get("pos", [])]
         pos = np.array([row[1:] for row in rec.get("pos", [])], dtype=float)
@@ -253,9 +259,9 @@ class Result:
         # candidates with a margin, so that the tree's own rounding at the range's edge loses no pair
         pairs = cKDTree(pos).query_pairs(float(r.max()) * (1 + 1e-9) + 1e-12, output_type="ndarray")
         edges = []
+        if links and len(pairs):
+            pairs = pairs[~links.mask(np.array(ids)[pairs[:, 0]], np.array(ids)[pairs[:, 1]])]
         for a, b in sorted(map(tuple, pairs.tolist())):
-            if cuts and frozenset((ids[a], ids[b])) in cuts or group.get(ids[a], 0) != group.get(ids[b], 0):
-                continue
             d = np.linalg.norm(pos[b] - pos[a])
             if directed:
                 edges += [(a, b)] * bool(d <= r[a]) + [(b, a)] * bool(d <= r[b])
@@ -287,17 +293,3 @@ class Result:
         from swarmactors.export import frames_frame
 
         return frames_frame(self)
-
-
-def _sever(rec: dict, cuts: set[frozenset], group: dict[int, int]) -> tuple[set[frozenset], dict[int, int]]:
-    """The cuts and partition groups after one tick record's events (``cut``, ``restore``, ``partition``, ``heal``)."""
-    for ev in rec.get("ev", ()):
-        if "cut" in ev:
-            cuts = cuts | {frozenset(p) for p in ev["cut"]}
-        elif "restore" in ev:
-            cuts = cuts - {frozenset(p) for p in ev["restore"]}
-        elif "partition" in ev:
-            group = {r: g + 1 for g, members in enumerate(ev["partition"]) for r in members}
-        elif "heal" in ev:
-            cuts, group = set(), {}
-    return cuts, group

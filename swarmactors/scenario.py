@@ -89,7 +89,8 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "watchdog_s": (_NUM, 10.0, _positive),
         "join_timeout_s": (_NUM, 60.0, _positive),
         "state_every": (int, 1, _non_negative),
-        "trace": (bool, True, None),
+        # true = "full", false = "off"; "summary" leaves out the per-delivery rows (docs/trace.md)
+        "trace": ((bool, str), True, lambda v: None if isinstance(v, bool) else _one_of("off", "summary", "full")(v)),
         "trace_compression": (str, "none", _one_of("none", "zstd")),  # trace.msgpack through Zstandard
         "processes": (int, 0, _non_negative),
         "trace_commands": (bool, False, None),  # tick records carry commanded velocities ("cmd", docs/trace.md)

@@ -33,8 +33,11 @@ from typing import Any
 import msgpack
 
 from transport import pack
+from transport.rows import IntRows
 
 VERSION = 1
+MODES = ("off", "summary", "full")  # run.trace: what the trace file holds (the hash is the same in every mode)
+SUMMARISED = ("del", "drop")  # the per-(frame, receiver) lists a summary trace replaces by counts
 FLUSH_S = 1.0  # the trace file is flushed at least this often (seconds)
 ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"  # a Zstandard frame's first bytes
 
@@ -91,6 +94,36 @@ def record_problem(rec: dict) -> str | None:
     return None
 
 
+def pack_record(rec: dict) -> bytes:
+    """``pack(rec)``, with ``IntRows`` values (the world's delivery rows) packed from their arrays.
+
+    A msgpack map is its header followed by each key and value in order, so the bytes are the same as packing
+    the record with every ``IntRows`` turned into its list of rows.
+    """
+    n = len(rec)
+    parts = [bytes([0x80 | n]) if n < 16 else b"\xde" + n.to_bytes(2, "big")]
+    for key, value in rec.items():
+        parts.append(pack(key))
+        parts.append(value.packb() if isinstance(value, IntRows) else pack(value))
+    return b"".join(parts)
+
+
+def summarise(rec: dict) -> dict:
+    """A canonical record as a summary trace holds it: ``del`` and ``drop`` replaced by counts.
+
+    ``ndel`` is the number of deliveries, ``ndrop`` the drops per cause (sorted by cause).
+    """
+    out = {k: v for k, v in rec.items() if k not in SUMMARISED}
+    if rec.get("del"):
+        out["ndel"] = len(rec["del"])
+    if rec.get("drop"):
+        causes: dict[str, int] = {}
+        for row in rec["drop"]:
+            causes[row[3]] = causes.get(row[3], 0) + 1
+        out["ndrop"] = dict(sorted(causes.items()))
+    return out
+
+
 class TraceHasher:
     """Running digest of canonical tick records."""
 
@@ -98,7 +131,11 @@ class TraceHasher:
         self._h = hashlib.blake2b(digest_size=16)
 
     def update(self, rec: dict) -> None:
-        self._h.update(pack(rec))
+        self._h.update(pack_record(rec))
+
+    def update_bytes(self, data: bytes) -> None:
+        """``update`` for a record already packed (``pack_record``)."""
+        self._h.update(data)
 
     def hexdigest(self) -> str:
         return self._h.hexdigest()
@@ -106,6 +143,11 @@ class TraceHasher:
 
 class TraceWriter:
     """A world sink: writes the trace file (if ``path``) and computes the hash.
+
+    ``mode`` (``run.trace``) is ``full`` (every record as it is hashed), ``summary`` (records without the
+    per-(frame, receiver) ``del`` and ``drop`` lists, which become the counts ``ndel`` and ``ndrop``; the header
+    says ``"mode": "summary"`` and the footer adds ``summary_hash``, the digest of the records as written) or
+    ``off`` (no file). ``trace_hash`` is computed over the full records in every mode, so it is the same.
 
     A write failure (full disk, removed directory) does not stop the run: the
     hash goes on, the file is closed, and ``error`` says what happened. The file is
@@ -115,8 +157,13 @@ class TraceWriter:
     by its magic number, and the hashes are over the records, not the bytes on disk.
     """
 
-    def __init__(self, path: Path | None, header: dict, compression: str | None = None):
+    def __init__(self, path: Path | None, header: dict, compression: str | None = None, mode: str = "full"):
+        if mode not in MODES:
+            raise ValueError(f"trace mode {mode!r}: must be one of {', '.join(MODES)}")
+        self.mode = mode
+        path = None if mode == "off" else path
         self.path = path
+        self.summary_hasher = TraceHasher() if mode == "summary" else None
         self.hasher = TraceHasher()
         self.ticks = 0
         self.error: str | None = None
@@ -133,6 +180,8 @@ class TraceWriter:
                     self._raw = self._file
                     self._file = zstandard.ZstdCompressor(level=3).stream_writer(self._raw, closefd=False)
                 head = {"trace": "swarmactors", "version": VERSION, **header}
+                if mode == "summary":
+                    head["mode"] = "summary"
                 self.header_hash = digest(head)
                 self._file.write(pack(head))
                 self._flush()  # the header is on disk as soon as the world opens
@@ -141,11 +190,15 @@ class TraceWriter:
 
     def record(self, rec: dict) -> None:
         rec = canonical(rec)
-        self.hasher.update(rec)
+        data = pack_record(rec)
+        self.hasher.update_bytes(data)
         self.ticks += 1
+        if self.summary_hasher is not None:
+            data = pack_record(summarise(rec))
+            self.summary_hasher.update_bytes(data)
         if self._file is not None:
             try:
-                self._file.write(pack(rec))
+                self._file.write(data)
                 if time.monotonic() - self._flushed >= FLUSH_S:
                     self._flush()
             except OSError as exc:
@@ -178,8 +231,11 @@ class TraceWriter:
     def close(self) -> None:
         if self._file is not None:
             try:
-                self._file.write(pack({"end": True, "ticks": self.ticks, "trace_hash": self.trace_hash,
-                                       "header_hash": self.header_hash}))
+                footer = {"end": True, "ticks": self.ticks, "trace_hash": self.trace_hash,
+                          "header_hash": self.header_hash}
+                if self.summary_hasher is not None:
+                    footer["summary_hash"] = self.summary_hasher.hexdigest()
+                self._file.write(pack(footer))
                 self._file.close()
                 if self._raw is not None:
                     self._raw.close()

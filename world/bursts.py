@@ -57,6 +57,20 @@ class GilbertElliott:
                 out[k] = s
         return out
 
+    def success_pairs(self, tick: int, src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+        """``success`` for pairs (src[k], dst[k]); a pair repeated in the batch (several frames) has one state."""
+        src = np.asarray(src, dtype=np.int64)
+        dst = np.asarray(dst, dtype=np.int64)
+        s = np.zeros(len(src), dtype=np.int64)
+        if len(src):
+            pairs, back = np.unique(np.column_stack([src, dst]), axis=0, return_inverse=True)
+            state = np.zeros(len(pairs), dtype=np.int64)
+            cuts = np.flatnonzero(pairs[1:, 0] != pairs[:-1, 0]) + 1
+            for rows in np.split(np.arange(len(pairs)), cuts):  # pairs are sorted by sender
+                state[rows] = self.states(tick, int(pairs[rows[0], 0]), pairs[rows, 1])
+            s = state[back.ravel()]
+        return np.where(s == 1, 1.0 - self.loss[1], 1.0 - self.loss[0])
+
     def success(self, tick: int, src: int, receivers: np.ndarray) -> np.ndarray:
         """Per-receiver probability that a frame sent at ``tick`` is decoded: 1 - loss of the pair's state."""
         s = self.states(tick, src, receivers)

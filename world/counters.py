@@ -13,7 +13,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from transport.messages import DROP_CAUSES, MORE_MALFORMED
+from transport.rows import IntRows
 
 log = logging.getLogger("world")
 
@@ -38,6 +41,18 @@ class Counters:
         self.dropped[cause] += n
         if src is not None and src >= 0:
             self.dropped_by[src][cause] += n
+
+    def drops(self, src: np.ndarray, cause: np.ndarray) -> None:
+        """Count drops given as arrays: sender ids and indices into ``DROP_CAUSES``."""
+        keys, counts = np.unique(np.column_stack([src, cause]), axis=0, return_counts=True)
+        for (s, c), k in zip(keys.tolist(), counts.tolist(), strict=True):
+            self.drop(s, DROP_CAUSES[c], k)
+
+    def add_to(self, table: dict[int, int], ids: np.ndarray) -> None:
+        """``table[i] += 1`` for every entry i of ``ids``."""
+        keys, counts = np.unique(ids, return_counts=True)
+        for i, k in zip(keys.tolist(), counts.tolist(), strict=True):
+            table[i] += k
 
     def as_dict(self) -> dict:
         return {
@@ -112,11 +127,10 @@ class TickRecord:
 
     def sent(self, frames: list) -> None:
         c = self.counters
-        sent = self.rec.setdefault("sent", [])
-        for f in frames:
-            c.sent += 1
-            c.sent_by[f.src] += 1
-            sent.append([f.src, f.seq, f.kind, f.dst, len(f.body)])
+        c.sent += len(frames)
+        rows = [[f.src, f.seq, f.kind, f.dst, len(f.body)] for f in frames]
+        c.add_to(c.sent_by, np.fromiter((row[0] for row in rows), np.int64, len(rows)))
+        self.rec.setdefault("sent", []).extend(rows)
 
     def dropped(self, drops: list) -> None:
         """``drops``: (src, seq, dst, kind, cause) as the radio decided them."""
@@ -124,6 +138,30 @@ class TickRecord:
         for src, seq, dst, _kind, cause in drops:
             self.counters.drop(src, cause)
             rec_drops.append([src, seq, dst, cause])
+
+    def dropped_arrays(self, src: np.ndarray, seq: np.ndarray, dst: np.ndarray, cause: np.ndarray) -> None:
+        """Drops as arrays (``cause``: indices into ``DROP_CAUSES``), the way ``dropped`` records them."""
+        if not len(src):
+            return
+        self.counters.drops(src, cause)
+        names = [DROP_CAUSES[c] for c in cause.tolist()]
+        rows = np.column_stack([src, seq, dst]).tolist()
+        for row, name in zip(rows, names, strict=True):
+            row.append(name)
+        self.rec.setdefault("drop", []).extend(rows)
+
+    def delivered_arrays(self, src: np.ndarray, seq: np.ndarray, dst: np.ndarray, sent_tick: np.ndarray) -> None:
+        """Deliveries as arrays, in the order given (the trace's ``del`` order)."""
+        if not len(src):
+            return
+        c = self.counters
+        c.delivered += len(src)
+        c.add_to(c.received_by, dst)
+        rows = IntRows(np.column_stack([src, seq, dst, sent_tick]))  # packs like the list of rows (transport/rows.py)
+        have = self.rec.get("del")
+        if have:
+            rows = (have if isinstance(have, IntRows) else IntRows(np.reshape(have, (-1, 4)))).extend(rows)
+        self.rec["del"] = rows
 
     def dead(self, src: int, seq: int, dst: int) -> None:
         """A frame whose receiver died while it was in the air."""
@@ -133,4 +171,8 @@ class TickRecord:
     def delivered(self, src: int, seq: int, dst: int, sent_tick: int) -> None:
         self.counters.delivered += 1
         self.counters.received_by[dst] += 1
-        self.rec.setdefault("del", []).append([src, seq, dst, sent_tick])
+        rows = self.rec.setdefault("del", [])
+        if isinstance(rows, IntRows):
+            self.rec["del"] = rows.extend([[src, seq, dst, sent_tick]])
+        else:
+            rows.append([src, seq, dst, sent_tick])

@@ -6,13 +6,15 @@ at the send tick:
 * range - a disk of the *transmitter's* radius, so heterogeneous ranges give
   directed links; a broadcast reaches every alive robot in range except the
   sender and the frame's ``exclude`` list, an addressed frame only its
-  destination and only if in range (else dropped as ``range``);
+  destination and only if in range (else dropped as ``range``); both by the
+  rule of world/sensing.py (squared distance <= range * range);
 * cuts and partitions - a frame over a cut link or between partition groups is
   dropped as ``cut``;
 * occlusion - with ``radio.occlusion``, a frame to a receiver in range that an
   obstacle hides from the sender (world/space.py) is dropped as ``occluded``;
-* bandwidth - an optional cap of bytes per robot per tick; frames past it, in
-  sending order, are dropped as ``bandwidth`` for every receiver;
+* bandwidth - an optional cap of bytes per robot per tick; every frame sent
+  counts, heard or not; frames past it, in sending order, are dropped as
+  ``bandwidth`` for every receiver;
 * loss - per (frame, receiver), from the counter-based generator:
   ``bernoulli`` loses with probability ``loss``; ``distance`` is Swarm Relays
   Sec. III-A: the receiver decodes with e = 1 when d < delta, exp(-delta*d/Z)
@@ -25,17 +27,27 @@ at the send tick:
 
 A frame still in the air when its receiver dies is dropped as ``dead`` at
 delivery time (by the world, not here).
+
+``Medium.decide_batch`` applies these rules to all (frame, receiver) pairs of a batch at once, with numpy:
+the frames' headers become arrays, the candidate receivers come from the tick's ``Reach`` table
+(world/sensing.py), and every rule is a mask over the pairs. The random draws are the counter-based ones
+(world/rng.py) keyed on the same fields, so the outcome is the same as deciding frame by frame, in any
+order. Frame bodies are never decoded: only their lengths count.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from itertools import repeat
 
 import numpy as np
 
+from transport.messages import DROP_CAUSES
+from transport.severance import Severance
 from world import rng
 from world.bursts import GilbertElliott
+from world.sensing import Reach
+
+CAUSE = {name: k for k, name in enumerate(DROP_CAUSES)}  # drop causes as small integers in ``Decision.cause``
 
 
 @dataclass
@@ -81,18 +93,61 @@ class Outgoing:
     at: float | None = None  # realtime: the sender's wall time when it radioed the frame (FrameOut.at)
 
 
+@dataclass
+class Decision:
+    """The outcome of a batch: for pair k, frame ``frames[frame[k]]`` and receiver ``dst[k]``.
+
+    ``cause[k]`` is -1 for a delivery, else an index into ``DROP_CAUSES``; ``src`` and ``seq`` are the
+    frames' headers (one entry per frame of the batch).
+    """
+
+    frame: np.ndarray
+    dst: np.ndarray
+    cause: np.ndarray
+    src: np.ndarray
+    seq: np.ndarray
+
+    def only(self, mask: np.ndarray) -> Decision:
+        """The pairs where ``mask`` holds."""
+        return Decision(self.frame[mask], self.dst[mask], self.cause[mask], self.src, self.seq)
+
+
+def _pairs(indptr: np.ndarray, rows: np.ndarray, frame_ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Expand CSR rows ``rows`` (one per frame in ``frame_ids``): (frame id, index into the CSR data) per pair.
+
+    A row past the table (a robot added after the tick's reach was computed) is empty.
+    """
+    last = len(indptr) - 1
+    starts = indptr[np.minimum(rows, last)]
+    counts = indptr[np.minimum(rows + 1, last)] - starts
+    total = int(counts.sum())
+    if total == 0:
+        empty = np.zeros(0, dtype=np.int64)
+        return empty, empty
+    first = np.cumsum(counts) - counts
+    idx = np.arange(total, dtype=np.int64) + np.repeat(starts - first, counts)
+    return np.repeat(frame_ids, counts), idx
+
+
 class Medium:
     """Decides receivers and drops for the frames of one tick."""
 
     def __init__(self, config: RadioConfig, seed: int):
         self.config = config
         self.seed = seed
-        self.cuts: set[tuple[int, int]] = set()
-        self.group: dict[int, int] = {}  # robot -> partition group; absent = group 0
-        self._budget: dict[int, int] = {}  # bytes sent this tick, per robot (bandwidth cap)
+        self.links = Severance()  # cuts and partitions (transport/severance.py)
+        self._budget = np.zeros(0, dtype=np.int64)  # bytes sent this tick, per robot (bandwidth cap)
         self._budget_tick = -1
         self.bursts = (GilbertElliott(seed, config.p_gb, config.p_bg, config.loss_good, config.loss_bad)
                        if config.loss_model == "gilbert" else None)
+
+    @property
+    def cuts(self) -> set[tuple[int, int]]:
+        return self.links.cuts
+
+    @property
+    def group(self) -> dict[int, int]:
+        return self.links.group
 
     def set_loss(self, loss: float) -> None:
         if self.bursts is not None:
@@ -100,22 +155,16 @@ class Medium:
         self.config.loss = loss
 
     def cut(self, a: int, b: int) -> None:
-        self.cuts.add((min(a, b), max(a, b)))
+        self.links.cut(a, b)
 
     def restore(self, a: int, b: int) -> None:
-        self.cuts.discard((min(a, b), max(a, b)))
+        self.links.restore(a, b)
 
     def partition(self, groups: list[list[int]]) -> None:
-        self.group = {r: g + 1 for g, members in enumerate(groups) for r in members}
+        self.links.partition(groups)
 
     def heal(self) -> None:
-        self.cuts.clear()
-        self.group.clear()
-
-    def _severed(self, src: int, dst: int) -> bool:
-        if self.cuts and (min(src, dst), max(src, dst)) in self.cuts:
-            return True
-        return bool(self.group) and self.group.get(src, 0) != self.group.get(dst, 0)
+        self.links.heal()
 
     def decide(
         self,
@@ -127,69 +176,145 @@ class Medium:
         ranges: np.ndarray,
         occluded: dict[int, np.ndarray] | None = None,
     ) -> tuple[list[tuple], list[tuple[int, int, int, str, str]]]:
-        """Return ``(deliveries, drops)`` for frames sent at ``tick``.
+        """``decide_batch`` with reach as ``{src: sorted ids}`` and results as tuples.
 
-        ``in_range[src]`` lists the alive robots within ``src``'s range (sorted); ``occluded[src]``, for a sender
-        an obstacle cuts off from some of them, is ``(heard, hidden)``: that list split by occlusion.
-        A delivery is ``(receiver, src, seq, frame, tick)``; a drop is
-        ``(src, seq, dst, kind, cause)``.
+        ``occluded[src]``, for a sender an obstacle cuts off from some of its reach, is ``(heard, hidden)``.
+        A delivery is ``(receiver, src, seq, frame, tick)``; a drop is ``(src, seq, dst, kind, cause)``.
         """
-        cfg = self.config
-        deliveries: list[tuple] = []
-        drops: list[tuple[int, int, int, str, str]] = []
-        if tick != self._budget_tick:  # the cap is per tick, however many uplinks carry the tick's frames
-            self._budget_tick, self._budget = tick, {}
-        budget = self._budget
         n = len(alive)
-        for f in frames:
-            split = occluded.get(f.src) if occluded else None
-            if f.dst is None:
-                receivers = in_range[f.src] if split is None else split[0]
-                if f.exclude:
-                    receivers = receivers[~np.isin(receivers, f.exclude)]
-                if split is not None:
-                    hidden = split[1][~np.isin(split[1], f.exclude)] if f.exclude else split[1]
-                    drops.extend((f.src, f.seq, r, f.kind, "occluded") for r in hidden.tolist())
+        rows = dict(in_range)
+        hidden_sets = {}
+        for src, (heard, hidden) in (occluded or {}).items():
+            rows[src] = np.union1d(heard, hidden).astype(np.int64)
+            hidden_sets[src] = set(np.asarray(hidden).tolist())
+        table = Reach.from_dict(max([n, *(k + 1 for k in rows)]), rows)
+        hidden = None
+        if hidden_sets:
+            owners = table.owners().tolist()
+            hidden = np.array([j in hidden_sets.get(i, ()) for i, j in zip(owners, table.nbrs.tolist(), strict=True)],
+                              dtype=bool)
+        out = self.decide_batch(tick, frames, table, alive, positions, ranges, hidden)
+        deliveries, drops = [], []
+        for k, d, c in zip(out.frame.tolist(), out.dst.tolist(), out.cause.tolist(), strict=True):
+            f = frames[k]
+            if c < 0:
+                deliveries.append((d, f.src, f.seq, f, tick))
             else:
-                d = f.dst
-                if not (0 <= d < n) or not alive[d]:
-                    drops.append((f.src, f.seq, d, f.kind, "dead"))
-                    continue
-                if np.linalg.norm(positions[d] - positions[f.src]) > ranges[f.src]:
-                    drops.append((f.src, f.seq, d, f.kind, "range"))
-                    continue
-                if split is not None and (split[1] == d).any():
-                    drops.append((f.src, f.seq, d, f.kind, "occluded"))
-                    continue
-                receivers = np.array([d], dtype=np.int64)
-            if receivers.size == 0:
-                continue
-            if cfg.bandwidth:
-                used = budget.get(f.src, 0) + len(f.body)
-                budget[f.src] = used
-                if used > cfg.bandwidth:
-                    drops.extend((f.src, f.seq, int(r), f.kind, "bandwidth") for r in receivers)
-                    continue
-            if self.cuts or self.group:
-                severed = np.array([self._severed(f.src, int(r)) for r in receivers])
-                drops.extend((f.src, f.seq, int(r), f.kind, "cut") for r in receivers[severed])
-                receivers = receivers[~severed]
-            p_ok = self._success_probability(tick, f.src, receivers, positions, ranges)
-            if p_ok is not None:
-                if ((p_ok == 0.0) | (p_ok == 1.0)).all():  # certain outcomes need no draw (u is in [0, 1))
-                    lost = p_ok == 0.0
-                else:
-                    lost = rng.uniform(self.seed, rng.LOSS, tick, f.src, f.seq, receivers) >= p_ok
-                if lost.any():
-                    drops.extend((f.src, f.seq, int(r), f.kind, "loss") for r in receivers[lost])
-                    receivers = receivers[~lost]
-            deliveries.extend(zip(receivers.tolist(), repeat(f.src), repeat(f.seq), repeat(f), repeat(tick)))
+                drops.append((f.src, f.seq, d, f.kind, DROP_CAUSES[c]))
         return deliveries, drops
 
-    def _success_probability(self, tick, src, receivers, positions, ranges):
-        """Per-receiver decoding probability, or None when every frame gets through."""
+    def decide_batch(
+        self,
+        tick: int,
+        frames: list[Outgoing],
+        table: Reach,
+        alive: np.ndarray,
+        positions: np.ndarray,
+        ranges: np.ndarray,
+        hidden: np.ndarray | None = None,
+    ) -> Decision:
+        """Receivers and drops of ``frames``, sent at ``tick``, for all (frame, receiver) pairs at once.
+
+        ``table`` holds each alive robot's reach at ``tick`` (world/sensing.py); ``hidden``, aligned with
+        ``table.nbrs``, marks the links an obstacle blocks (None: none). In order: a broadcast's candidates
+        are its sender's reach minus its ``exclude`` list, the hidden ones dropped as ``occluded``; an
+        addressed frame's only candidate is its destination, dropped as ``dead`` (no such robot, or dead),
+        ``range`` (not in the sender's reach: the broadcast's rule) or ``occluded``; every frame is charged
+        to its sender's bandwidth budget for the tick, in sending order, and the candidates of a frame past
+        the cap are dropped as ``bandwidth``; then severed links (``cut``), then loss.
+        """
         cfg = self.config
-        keep = (1.0 - cfg.loss) if self.bursts is None else self.bursts.success(tick, src, receivers)
+        n = len(alive)
+        nf = len(frames)
+        if tick != self._budget_tick:  # the cap is per tick, however many uplinks carry the tick's frames
+            self._budget_tick = tick
+            self._budget = np.zeros(n, dtype=np.int64)
+        src = np.fromiter((f.src for f in frames), np.int64, nf)
+        seq = np.fromiter((f.seq for f in frames), np.int64, nf)
+        bcast = np.fromiter((f.dst is None for f in frames), bool, nf)
+        out_f: list[np.ndarray] = []  # early drops: (frame, dst, cause)
+        out_d: list[np.ndarray] = []
+        out_c: list[np.ndarray] = []
+
+        def drop(fr, ds, cause):
+            out_f.append(np.asarray(fr, dtype=np.int64))
+            out_d.append(np.asarray(ds, dtype=np.int64))
+            out_c.append(np.full(len(out_f[-1]), CAUSE[cause], dtype=np.int64))
+
+        # broadcasts: the sender's reach, minus the exclude list; hidden links are dropped as occluded
+        b_ids = np.flatnonzero(bcast)
+        pf, idx = _pairs(table.indptr, src[b_ids], b_ids) if b_ids.size else (np.zeros(0, np.int64),) * 2
+        pd = table.nbrs[idx]
+        ex = [(k, x) for k in b_ids.tolist() for x in frames[k].exclude]
+        if ex and pf.size:
+            ef, ed = np.array(ex, dtype=np.int64).T
+            keep = ~np.isin(pf * (n + 1) + pd, ef * (n + 1) + np.where((ed >= 0) & (ed < n), ed, n))
+            pf, pd, idx = pf[keep], pd[keep], idx[keep]
+        if hidden is not None and pf.size:
+            h = hidden[idx]
+            drop(pf[h], pd[h], "occluded")
+            pf, pd = pf[~h], pd[~h]
+        # addressed frames: one candidate each, in range when it is in the sender's reach (the same rule)
+        u_ids = np.flatnonzero(~bcast)
+        if u_ids.size:
+            ud = np.fromiter((frames[k].dst for k in u_ids.tolist()), np.int64, len(u_ids))
+            dead = (ud < 0) | (ud >= n)
+            dead[~dead] = ~alive[ud[~dead]]
+            drop(u_ids[dead], ud[dead], "dead")
+            u_ids, ud = u_ids[~dead], ud[~dead]
+            where = table.find(src[u_ids], ud)
+            far = where < 0
+            drop(u_ids[far], ud[far], "range")
+            u_ids, ud, where = u_ids[~far], ud[~far], where[~far]
+            if hidden is not None:
+                h = hidden[where]
+                drop(u_ids[h], ud[h], "occluded")
+                u_ids, ud = u_ids[~h], ud[~h]
+            pf = np.concatenate([pf, u_ids])
+            pd = np.concatenate([pd, ud])
+        # bandwidth: every frame sent charges its sender, in sending order
+        if cfg.bandwidth and nf:
+            everyone = np.arange(nf, dtype=np.int64)
+            over = self._charge(src, frames, everyone)
+            if over.size and pf.size:
+                lost = np.isin(pf, over)
+                drop(pf[lost], pd[lost], "bandwidth")
+                pf, pd = pf[~lost], pd[~lost]
+        ps = src[pf]
+        if self.links and pf.size:
+            sev = self.links.mask(ps, pd)
+            drop(pf[sev], pd[sev], "cut")
+            pf, pd, ps = pf[~sev], pd[~sev], ps[~sev]
+        p_ok = self._success_probability(tick, ps, pd, positions, ranges) if pf.size else None
+        if p_ok is not None:
+            lost = rng.uniform(self.seed, rng.LOSS, tick, ps, seq[pf], pd) >= p_ok  # p_ok = 0 or 1: certain
+            drop(pf[lost], pd[lost], "loss")
+            pf, pd = pf[~lost], pd[~lost]
+        out_f.append(pf)
+        out_d.append(pd)
+        out_c.append(np.full(len(pf), -1, dtype=np.int64))
+        return Decision(np.concatenate(out_f), np.concatenate(out_d), np.concatenate(out_c), src, seq)
+
+    def _charge(self, senders: np.ndarray, frames: list[Outgoing], which: np.ndarray) -> np.ndarray:
+        """Add the bodies of frames ``which`` (sent by ``senders``, in order) to the budget; those past the cap."""
+        top = int(senders.max()) + 1
+        if top > len(self._budget):
+            self._budget = np.concatenate([self._budget, np.zeros(top - len(self._budget), dtype=np.int64)])
+        size = np.fromiter((len(frames[k].body) for k in which.tolist()), np.int64, len(which))
+        order = np.argsort(senders, kind="stable")
+        s, z = senders[order], size[order]
+        total = np.cumsum(z)
+        first = np.flatnonzero(np.r_[True, s[1:] != s[:-1]])
+        before = np.repeat(total[first] - z[first], np.diff(np.r_[first, len(s)]))
+        used = self._budget[s] + total - before
+        last = np.r_[first[1:], len(s)] - 1
+        self._budget[s[last]] = used[last]
+        return np.sort(order[used > self.config.bandwidth])
+
+    def _success_probability(self, tick, src, receivers, positions, ranges):
+        """Per-pair decoding probability, or None when every frame gets through."""
+        cfg = self.config
+        keep = (1.0 - cfg.loss) if self.bursts is None else self.bursts.success_pairs(tick, src, receivers)
         if cfg.model == "distance":
             d = np.linalg.norm(positions[receivers] - positions[src], axis=1)
             e = np.where(d < cfg.delta, 1.0, np.exp(-cfg.delta * d / ranges[src]))

@@ -1,32 +1,131 @@
-"""Neighbourhoods from positions: radio reach and sensing, via a k-d tree.
+"""Neighbourhoods from positions: radio reach and sensing, from one k-d tree query per tick.
 
-``in_range[i]`` lists the alive robots within robot i's *radio* range
-(directed when ranges differ); ``sensed[i]`` lists (id, position) of the alive
-robots within its *sensing* range, with optional Gaussian noise on the
-positions drawn from the counter-based generator keyed on
-(seed, tick, observer, observed).
+Robot j is within robot i's radius r_i when i != j, both are alive and the squared distance, summed
+coordinate by coordinate in order, is at most r_i * r_i (a directed relation when radii differ). ``reach``
+gives it for every robot at once as a CSR table (``Reach``): row i lists i's neighbours, sorted. Candidate
+pairs come from a k-d tree queried with a margin, so the tree's own rounding at the edge loses no pair; the
+rule above then decides on exact floats. ``within`` is the same table as ``{i: neighbours}``.
+
+``sensed[i]`` lists (id, position) of the alive robots within its *sensing* range, with optional Gaussian
+noise on the positions drawn from the counter-based generator keyed on (seed, tick, observer, observed).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from world import rng
 
+MARGIN = 1e-9  # relative margin of the k-d tree's candidate query
+
+
+@dataclass
+class Reach:
+    """Neighbours of every robot as CSR: ``nbrs[indptr[i]:indptr[i + 1]]`` are robot i's, sorted."""
+
+    indptr: np.ndarray  # (n + 1,) int64
+    nbrs: np.ndarray  # int64
+
+    @property
+    def n(self) -> int:
+        return len(self.indptr) - 1
+
+    def row(self, i: int) -> np.ndarray:
+        return self.nbrs[self.indptr[i]: self.indptr[i + 1]]
+
+    def owners(self) -> np.ndarray:
+        """The robot whose row each entry of ``nbrs`` is in."""
+        return np.repeat(np.arange(self.n, dtype=np.int64), np.diff(self.indptr))
+
+    def find(self, src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+        """For each pair, the index in ``nbrs`` of ``dst`` in ``src``'s row, or -1 when it is not there."""
+        src = np.asarray(src, dtype=np.int64)
+        dst = np.asarray(dst, dtype=np.int64)
+        stride = self.n + 1
+        keys = self.owners() * stride + self.nbrs  # ascending: rows in order, each row sorted
+        ok = (src >= 0) & (src < self.n) & (dst >= 0) & (dst < self.n)
+        q = np.where(ok, src * stride + dst, -1)
+        j = np.minimum(np.searchsorted(keys, q), max(len(keys) - 1, 0))
+        found = ok & (len(keys) > 0)
+        found[found] = keys[j[found]] == q[found]
+        return np.where(found, j, -1)
+
+    def as_dict(self, alive_ids: np.ndarray) -> dict[int, np.ndarray]:
+        """``{i: neighbours}`` for the alive robots."""
+        return {i: self.nbrs[self.indptr[i]: self.indptr[i + 1]] for i in alive_ids.tolist()}
+
+    @classmethod
+    def from_dict(cls, n: int, rows: dict[int, np.ndarray]) -> Reach:
+        counts = np.zeros(n, dtype=np.int64)
+        for i, ids in rows.items():
+            counts[i] = len(ids)
+        indptr = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(counts, out=indptr[1:])
+        parts = [np.asarray(rows[i], dtype=np.int64) for i in sorted(rows) if len(rows[i])]
+        return cls(indptr, np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64))
+
+
+def reach(pos: np.ndarray, alive_ids: np.ndarray, radii: np.ndarray) -> Reach:
+    """Every alive robot's neighbours within its own radius (the rule in the module's docstring)."""
+    n = len(pos)
+    alive_ids = np.asarray(alive_ids, dtype=np.int64)
+    if alive_ids.size < 2:
+        return Reach(np.zeros(n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64))
+    pts = pos[alive_ids]
+    r = radii[alive_ids]
+    tree = cKDTree(pts)
+    pairs = tree.query_pairs(max(float(r.max()), 0.0) * (1 + MARGIN) + 1e-12, output_type="ndarray")
+    a = np.concatenate([pairs[:, 0], pairs[:, 1]]).astype(np.int64)
+    b = np.concatenate([pairs[:, 1], pairs[:, 0]]).astype(np.int64)
+    diff = pts[b] - pts[a]
+    d2 = diff[:, 0] * diff[:, 0]
+    for k in range(1, diff.shape[1]):
+        d2 = d2 + diff[:, k] * diff[:, k]
+    keep = d2 <= r[a] * r[a]
+    src, dst = alive_ids[a[keep]], alive_ids[b[keep]]
+    order = np.lexsort((dst, src))
+    counts = np.bincount(src, minlength=n)
+    indptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(counts, out=indptr[1:])
+    return Reach(indptr, dst[order])
+
 
 def within(pos: np.ndarray, alive_ids: np.ndarray, radii: np.ndarray) -> dict[int, np.ndarray]:
-    """For each alive robot i, the sorted alive ids j != i with |x_j - x_i| <= radii[i]."""
+    """For each alive robot i, the sorted alive ids j != i within radii[i] (``reach`` as a dict)."""
+    alive_ids = np.asarray(alive_ids, dtype=np.int64)
     if alive_ids.size == 0:
         return {}
-    pts = pos[alive_ids]
-    tree = cKDTree(pts)
-    hits = tree.query_ball_point(pts, r=radii[alive_ids], return_sorted=True)
-    out: dict[int, np.ndarray] = {}
-    for k, i in enumerate(alive_ids.tolist()):
-        ids = alive_ids[hits[k]]
-        out[i] = ids[ids != i]
-    return out
+    return reach(pos, alive_ids, radii).as_dict(alive_ids)
+
+
+def sense_table(pos: np.ndarray, table: Reach, alive_ids: np.ndarray, noise: np.ndarray, seed: int, tick: int,
+                digits: int = 6) -> dict[int, list]:
+    """``{i: [[j, ...], [x_j, y_j(, z_j), ...]]}`` (ids, flat coordinates) per alive robot, from ``table``.
+
+    Positions are noisy where ``noise[i] > 0`` (x and y only; Box-Muller from two uniforms keyed on
+    (seed, NOISE, tick, i, 2j) and (…, 2j + 1)); everything is computed for all pairs at once.
+    """
+    dims = pos.shape[1]
+    obs = table.owners()
+    nbrs = table.nbrs
+    values = np.round(pos, digits)[nbrs]
+    noisy = noise[obs] > 0.0
+    if noisy.any():
+        i, j = obs[noisy], nbrs[noisy]
+        p = pos[j].copy()
+        u1 = rng.uniform(seed, rng.NOISE, tick, i, j * 2)
+        u2 = rng.uniform(seed, rng.NOISE, tick, i, j * 2 + 1)
+        r = np.sqrt(-2.0 * np.log(np.maximum(u1, 1e-300))) * noise[i]
+        p[:, 0] += r * np.cos(2 * np.pi * u2)
+        p[:, 1] += r * np.sin(2 * np.pi * u2)
+        values[noisy] = np.round(p, digits)
+    ids = nbrs.tolist()
+    flat = values.ravel().tolist()
+    ptr = table.indptr.tolist()
+    return {i: [ids[ptr[i]: ptr[i + 1]], flat[ptr[i] * dims: ptr[i + 1] * dims]] for i in alive_ids.tolist()}
 
 
 def sense(
@@ -37,24 +136,6 @@ def sense(
     tick: int,
     digits: int = 6,
 ) -> dict[int, list]:
-    """``{i: [[j, ...], [x_j, y_j(, z_j), ...]]}`` (ids, flat coordinates) per alive robot.
-
-    Positions are noisy where ``noise[i] > 0``; the flat layout keeps the
-    per-tick cost in numpy rather than in Python loops over neighbours.
-    """
-    out: dict[int, list] = {}
-    rounded = np.round(pos, digits)
-    for i, ids in neighbours.items():
-        if noise[i] > 0.0 and ids.size:
-            p = pos[ids].copy()
-            u1 = rng.uniform(seed, rng.NOISE, tick, i, ids * 2)
-            u2 = rng.uniform(seed, rng.NOISE, tick, i, ids * 2 + 1)
-            # Box-Muller: one Gaussian per coordinate pair from two uniforms.
-            r = np.sqrt(-2.0 * np.log(np.maximum(u1, 1e-300))) * noise[i]
-            p[:, 0] += r * np.cos(2 * np.pi * u2)
-            p[:, 1] += r * np.sin(2 * np.pi * u2)
-            flat = np.round(p, digits).ravel().tolist()
-        else:
-            flat = rounded[ids].ravel().tolist()
-        out[i] = [ids.tolist(), flat]
-    return out
+    """``sense_table`` for neighbours given as ``{i: ids}`` (rows in any order; ids as given)."""
+    table = Reach.from_dict(len(pos), neighbours)
+    return sense_table(pos, table, np.array(sorted(neighbours), dtype=np.int64), noise, seed, tick, digits)

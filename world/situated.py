@@ -227,9 +227,16 @@ class Situated:
         if not deliveries:
             return
         dst, src, seq = (np.array(col, dtype=np.int64) for col in list(zip(*deliveries, strict=True))[:3])
+        self.note_rab_arrays(tick, dst, src, seq, pos, heading)
+
+    def note_rab_arrays(self, tick: int, dst: np.ndarray, src: np.ndarray, seq: np.ndarray, pos: np.ndarray,
+                        heading: np.ndarray) -> None:
+        """``note_rab`` for deliveries given as arrays of receivers, senders and sequence numbers."""
         if not self.rab_all:
             want = self.local[dst]
             dst, src, seq = dst[want], src[want], seq[want]
+        if not len(dst):
+            return
         r, b, _ = body_frame(pos[src] - pos[dst], heading[dst])
         noisy = (self.sigma_r[dst] > 0) | (self.sigma_b[dst] > 0)
         if noisy.any():

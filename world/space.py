@@ -91,6 +91,16 @@ class SpaceRules:
                 pos[b] = before[b]
 
     # ------------------------------------------------------------ radio
+    def hidden_pairs(self, pos: np.ndarray, table) -> np.ndarray | None:
+        """Which links of a ``world.sensing.Reach`` table an obstacle blocks, aligned with ``table.nbrs``.
+
+        None when none is (or occlusion is off).
+        """
+        if not self.occlusion or not table.nbrs.size:
+            return None
+        hidden = self.occluded(pos, table.owners(), table.nbrs)
+        return hidden if hidden.any() else None
+
     def hidden_by_sender(self, pos: np.ndarray, reach: dict[int, np.ndarray]) -> dict[int, tuple]:
         """Per sender whose reach (``reach[src]``, sorted) an obstacle cuts: ``(heard, hidden)`` robot ids."""
         if not self.occlusion or not reach:

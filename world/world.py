@@ -27,7 +27,6 @@ import logging
 import time
 from collections import defaultdict
 from collections.abc import Callable
-from operator import itemgetter
 from typing import Any, Protocol
 
 import numpy as np
@@ -61,9 +60,9 @@ from world.clock import LockstepClock, RealtimeClock, make_clock
 from world.counters import Counters, TickRecord
 from world.faults import REQUEST_CAP, ROBOT_CAP, Faults
 from world.kinematics import MAX_COORD, bad_positions, integrate
-from world.radio import Medium, Outgoing, RadioConfig
+from world.radio import Decision, Medium, Outgoing, RadioConfig
 from world.registry import HostEntry, Robots
-from world.sensing import sense, within
+from world.sensing import Reach, reach, sense_table
 from world.situated import Situated
 from world.space import SpaceRules
 from world.uplink import COUNTED_CRASHES, INVALID_POSITION, accept
@@ -71,7 +70,6 @@ from world.uplink import COUNTED_CRASHES, INVALID_POSITION, accept
 log = logging.getLogger(__name__)
 
 _NOTHING: tuple = ([], [])
-_BY_DST_SRC_SEQ = itemgetter(0, 1, 2)
 POS_DIGITS = 6  # positions in traces, state and hashes are rounded to 1e-6 length units
 INTERRUPT_REPORTS_S = 5.0  # an interrupted run waits at most this long for its hosts' final reports
 MAX_BACKDATE_S = 0.05  # realtime: a frame's latency runs from at most this long before the world received it
@@ -145,8 +143,9 @@ class World:
         self.wall_s = 0.0
         self.reports: dict[int, dict] = {}
         self._last_seq: dict[int, int] = {}  # each robot's last accepted frame seq
-        # lockstep: frames in the air by due tick; each host's pending step (tick, query, uplink)
-        self._due: dict[int, list[tuple[int, int, int, Outgoing, int]]] = defaultdict(list)
+        # lockstep: frames in the air by due tick, as batches (frames, Decision of their deliveries, send tick);
+        # each host's pending step (tick, query, uplink)
+        self._due: dict[int, list[tuple[list[Outgoing], Decision, int]]] = defaultdict(list)
         self._held: dict[str, tuple[int, PendingQuery | None, Uplink | None]] = {}
         self._all_stepped = asyncio.Event()
         self._awaited_tick = -1
@@ -156,12 +155,12 @@ class World:
         self.interrupted = False  # stopped by a signal: reports are awaited INTERRUPT_REPORTS_S at most
         if isinstance(self.clock, RealtimeClock):
             self.clock.on_due = self._rt_deliver
-        # this tick's reach and sensing
-        self._reach: dict[int, np.ndarray] = {}
+        # this tick's reach (world/sensing.py) and sensing
+        self._reach: Reach = reach(np.zeros((0, self.dims)), np.zeros(0, dtype=np.int64), np.zeros(0))
         self._sensed: dict[int, tuple] = {}
         self._poses: list[list[float]] = []
         self._known: dict[int, list[str]] | None = None  # objects each robot knows this tick (None: all)
-        self._occluded: dict[int, tuple] = {}  # sender -> (heard, hidden): its reach split by obstacles
+        self._hidden: np.ndarray | None = None  # links of ``_reach`` an obstacle blocks (None: none)
         self._rays: dict[int, list[float]] = {}  # robot -> obstacle range-ray distances
 
     @property
@@ -218,14 +217,11 @@ class World:
         for action, source in self.faults.due(self.tick):
             self._apply(action, source)
         alive = self.robots.alive_ids()
-        self._reach = within(self.robots.pos, alive, self.robots.range)
-        if np.array_equal(self.robots.sensing, self.robots.range):
-            sensed_ids = self._reach
-        else:
-            sensed_ids = within(self.robots.pos, alive, self.robots.sensing)
-        self._sensed = sense(self.robots.pos, sensed_ids, self.robots.noise, self.seed, self.tick, POS_DIGITS)
         r = self.robots
-        self._occluded = self.space.hidden_by_sender(r.pos, self._reach) if self.space is not None else {}
+        self._reach = reach(r.pos, alive, r.range)
+        sensed_ids = self._reach if np.array_equal(r.sensing, r.range) else reach(r.pos, alive, r.sensing)
+        self._sensed = sense_table(r.pos, sensed_ids, alive, r.noise, self.seed, self.tick, POS_DIGITS)
+        self._hidden = self.space.hidden_pairs(r.pos, self._reach) if self.space is not None else None
         self._rays = (self.space.rays(r.pos, r.heading, r.sensing, r.rays, alive)
                       if self.space is not None and r.rays.any() else {})
         if self.space is not None and r.body.any():
@@ -234,8 +230,8 @@ class World:
         self._poses = np.round(np.hstack([r.pos, r.heading[:, None]]), POS_DIGITS).tolist()
         self.situated.sync(r.spec)
         if self.situated.active:  # situated sensing (world/situated.py): own frames, closest points
-            self._sensed = self.situated.sense(r.pos, r.heading, alive, r.sensing, r.noise, sensed_ids, self._sensed,
-                                               self.tick, POS_DIGITS)
+            self._sensed = self.situated.sense(r.pos, r.heading, alive, r.sensing, r.noise,
+                                               sensed_ids.as_dict(alive), self._sensed, self.tick, POS_DIGITS)
             self.situated.own_poses(self._poses, r.pos, r.heading, POS_DIGITS)
         self._known = self._known_objects()
 
@@ -544,36 +540,59 @@ class World:
 
     # ------------------------------------------------------------ radio
     def _transmit(self, frames: list[Outgoing]) -> None:
-        """Step 5: decide receivers for frames sent now (from this tick's positions)."""
-        deliveries, drops = self.medium.decide(
-            self.tick, frames, self._reach, self.robots.alive, self.robots.pos, self.robots.range, self._occluded
-        )
+        """Step 5: decide receivers for frames sent now (from this tick's positions), all pairs at once."""
+        r = self.robots
+        out = self.medium.decide_batch(self.tick, frames, self._reach, r.alive, r.pos, r.range, self._hidden)
         self.record.sent(frames)
-        if self.situated.rab:
-            self.situated.note_rab(self.tick, deliveries, self.robots.pos, self.robots.heading)
-        if drops:
-            self.record.dropped(drops)
+        ok = out.cause < 0
+        if not ok.all():
+            bad = ~ok
+            fr = out.frame[bad]
+            self.record.dropped_arrays(out.src[fr], out.seq[fr], out.dst[bad], out.cause[bad])
+        if self.situated.rab and ok.any():
+            fr = out.frame[ok]
+            self.situated.note_rab_arrays(self.tick, out.dst[ok], out.src[fr], out.seq[fr], r.pos, r.heading)
         if self.lockstep:
-            self._due[self.tick + self.radio.latency].extend(deliveries)
+            if ok.any():
+                self._due[self.tick + self.radio.latency].append((frames, out.only(ok), self.tick))
         else:
-            self._schedule_realtime(deliveries)
+            fr, dst = out.frame[ok].tolist(), out.dst[ok].tolist()
+            self._schedule_realtime([(d, frames[k].src, frames[k].seq, frames[k], self.tick)
+                                     for d, k in zip(dst, fr, strict=True)])
 
     def _deliver_due(self, tick: int) -> dict[int, list]:
-        """Lockstep: each robot's inbox of tick ``tick`` as (frame, send tick), ordered by (src, seq)."""
-        inbox: dict[int, list] = defaultdict(list)
-        due = self._due.pop(tick, [])
-        due.sort(key=_BY_DST_SRC_SEQ)
-        alive = self.robots.alive.tolist()
-        dead = []
-        for d in due:
-            if alive[d[0]]:
-                inbox[d[0]].append((d[3], d[4]))
-                self.record.delivered(d[1], d[2], d[0], d[4])
-            else:
-                dead.append(d)
-        for dst, src, seq, _, _ in dead:
-            self.record.dead(src, seq, dst)
-        return inbox
+        """Lockstep: each robot's inbox of tick ``tick`` as (frame, send tick), ordered by (src, seq).
+
+        The tick's deliveries are put in (dst, src, seq) order with one sort; the trace records them in that
+        order; those whose receiver died meanwhile are dropped as ``dead``.
+        """
+        batches = self._due.pop(tick, [])
+        if not batches:
+            return {}
+        entries: list[tuple[Outgoing, int]] = []  # (frame, send tick), one per frame, shared by its receivers
+        parts = []
+        for fs, out, sent_tick in batches:
+            parts.append((out.dst, out.src[out.frame], out.seq[out.frame], out.frame + len(entries),
+                          np.full(len(out.frame), sent_tick, dtype=np.int64)))
+            entries.extend([(f, sent_tick) for f in fs])
+        dst, src, seq, ref, sent = (np.concatenate(col) for col in zip(*parts, strict=True))
+        order = np.lexsort((seq, src, dst))
+        dst, src, seq, ref, sent = dst[order], src[order], seq[order], ref[order], sent[order]
+        live = self.robots.alive[dst]
+        if not live.all():
+            for d, s_, q in zip(dst[~live].tolist(), src[~live].tolist(), seq[~live].tolist(), strict=True):
+                self.record.dead(s_, q, d)
+            dst, src, seq, ref, sent = dst[live], src[live], seq[live], ref[live], sent[live]
+        self.record.delivered_arrays(src, seq, dst, sent)
+        if not len(dst):
+            return {}
+        table = np.empty(len(entries), dtype=object)
+        for k, entry in enumerate(entries):  # element by element: numpy would unpack the pairs
+            table[k] = entry
+        items = table[ref].tolist()
+        bounds = np.flatnonzero(np.r_[True, dst[1:] != dst[:-1], True]).tolist()
+        ids = dst[bounds[:-1]].tolist()
+        return {rid: items[a:b] for rid, a, b in zip(ids, bounds[:-1], bounds[1:], strict=True)}
 
     def _schedule_realtime(self, deliveries: list[tuple[int, int, int, Outgoing, int]]) -> None:
         """Realtime: each delivery goes to its host at once, due when its drawn latency has elapsed.

@@ -57,7 +57,7 @@ def _product(ids, pos, ranges, cuts, groups) -> set[tuple[int, int]]:
     if groups is not None:
         medium.partition(groups)
     reach = within(xy, np.array(ids, dtype=int), radii)
-    return {(i, int(j)) for i, js in reach.items() for j in js if not medium._severed(i, int(j))}
+    return {(i, int(j)) for i, js in reach.items() for j in js if not medium.links.severed(i, int(j))}
 
 
 @settings(max_examples=300, deadline=None)

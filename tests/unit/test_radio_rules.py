@@ -211,8 +211,6 @@ def test_range_edge_is_inclusive():
     assert got == {(0, 1, 1): "delivered", (0, 2, 1): "delivered", (0, 3, 2): "range"}
 
 
-@pytest.mark.xfail(strict=True, reason="product bug: the unicast range check (norm <= range) and the broadcast "
-                   "reach (k-d tree, squared distance <= range**2) round differently at the range's edge")
 def test_addressed_frame_and_broadcast_agree_at_the_range_edge():
     # A 0.39/0.52/0.65 right triangle: in floating point the distance rounds to 0.65 but its square exceeds
     # 0.65**2, so the world's broadcast reach (world.sensing.within) leaves robot 1 out while a frame
@@ -336,9 +334,6 @@ def test_zero_bandwidth_means_no_cap():
     assert set(got.values()) == {"delivered"} and len(got) == 19
 
 
-@pytest.mark.xfail(strict=True, reason="product bug: Medium.decide charges the bandwidth budget only for frames "
-                   "that have receivers; a broadcast heard by nobody (or whose receivers are all excluded) and "
-                   "an addressed frame dropped as range/dead cost the sender nothing")
 def test_every_frame_sent_counts_against_the_bandwidth_budget():
     # "bytes of frame bodies a robot may send per tick" (docs/scenarios.md): robot 0 sends 60 + 60 + 60 bytes
     # with a cap of 100, so the third frame is past the budget whoever heard the first two.
