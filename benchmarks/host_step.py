@@ -39,6 +39,8 @@ from transport.messages import Downlink as DownlinkType
 from transport.messages import FrameIn, Inputs, RobotDescr, RobotIn, RunInfo, Uplink, decode, encode
 
 ROOT = Path(__file__).resolve().parent.parent
+if str(ROOT / "benchmarks") not in sys.path:  # idle_behavior
+    sys.path.insert(0, str(ROOT / "benchmarks"))
 
 
 def load_host(commit: str | None):
@@ -66,29 +68,33 @@ def grid(n: int, spacing: float = 0.5) -> np.ndarray:
     return np.array([[spacing * (i % side), spacing * (i // side)] for i in range(n)])
 
 
-def build_inputs(n: int, ticks: int) -> tuple[list[bytes], list[RobotDescr]]:
-    """Each tick's encoded inputs for one host running all ``n`` robots (frames of tick t - 1 delivered at t)."""
+def build_inputs(n: int, ticks: int, idle: bool = False) -> tuple[list[bytes], list[RobotDescr]]:
+    """Each tick's encoded inputs for one host running all ``n`` robots (frames of tick t - 1 delivered at t).
+
+    ``idle``: robots that do nothing (``idle_behavior:Idle``), so no frames: the host's own cost per robot.
+    """
     pos = grid(n)
     plain = pos.tolist()
     d = np.linalg.norm(pos[:, None, :] - pos[None, :, :], axis=2)
     nbrs = [np.flatnonzero((d[i] <= 0.75) & (np.arange(n) != i)).tolist() for i in range(n)]
-    descr = [RobotDescr(i, [*plain[i], 0.0], [{"use": "beacon"}], "ground", 0.75, 0.75, 1.0) for i in range(n)]
+    use = "idle_behavior:Idle" if idle else "beacon"
+    descr = [RobotDescr(i, [*plain[i], 0.0], [{"use": use}], "ground", 0.75, 0.75, 1.0) for i in range(n)]
     out = []
     for t in range(ticks):
         body = pack([float(t - 1), b"\x00" * 8])
-        table = [FrameIn(s, "BEACON", t, body, float(t - 1)) for s in range(n)] if t else []
+        table = [FrameIn(s, "BEACON", t, body, float(t - 1)) for s in range(n)] if t and not idle else []
         rows = []
         for i in range(n):
             ids = nbrs[i]
             flat = np.round(pos[ids], 6).ravel().tolist()
-            rows.append(RobotIn(i, [*plain[i], 0.0], (ids, flat), list(ids) if t else []))
+            rows.append(RobotIn(i, [*plain[i], 0.0], (ids, flat), list(ids) if table else []))
         out.append(encode(Inputs(t, float(t), rows, table, {})))
     return out, descr
 
 
 def run_once(mod, inputs: list[bytes], descr: list[RobotDescr]) -> tuple[float, int, dict]:
     """CPU seconds for the host of ``mod`` to take ``inputs`` tick by tick; deliveries; the robots' reports."""
-    host = mod.RobotHost(_NoLink(), mod.Keys("bench"))
+    host = mod.RobotHost(_NoLink(), mod.Keys("bench"), allow=("idle_behavior",))
     host.name, host.key = "h0", b"k" * 32
     host.run_info = RunInfo("lockstep", 1.0, 1, len(inputs), 10.0, 0)
     for dsc in descr:
@@ -119,9 +125,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--ticks", type=int, default=30)
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--profile", action="store_true")
+    ap.add_argument("--idle", action="store_true", help="robots that do nothing (no frames): the host's own cost")
     ap.add_argument("--out", type=Path, default=None, help="write the runs as JSON here")
     args = ap.parse_args(argv)
-    inputs, descr = build_inputs(args.n, args.ticks)
+    inputs, descr = build_inputs(args.n, args.ticks, args.idle)
     new = load_host(None)
     if args.profile:
         prof = cProfile.Profile()
@@ -143,14 +150,16 @@ def main(argv: list[str] | None = None) -> int:
         print("the two hosts' robots reported differently", file=sys.stderr)
         return 1
     robot_ticks = args.n * args.ticks
-    res = {"n": args.n, "ticks": args.ticks, "deliveries": deliveries, "base": args.base,
+    res = {"n": args.n, "ticks": args.ticks, "behavior": "idle" if args.idle else "beacon", "deliveries": deliveries,
+           "base": args.base,
            "load": os.getloadavg()[0], "runs_s": times}
     for which in ("base", "new"):
         med = statistics.median(times[which])
         res[which] = {"median_s": med, "us_per_robot_tick": 1e6 * med / robot_ticks,
-                      "us_per_delivery": 1e6 * med / deliveries, "robot_ticks_per_s": robot_ticks / med}
+                      "us_per_delivery": 1e6 * med / deliveries if deliveries else None,
+                      "robot_ticks_per_s": robot_ticks / med}
         print(f"{which:5s} median {med * 1e3:7.1f} ms for {args.ticks} ticks: "
-              f"{res[which]['us_per_robot_tick']:5.2f} µs/robot-tick, {res[which]['us_per_delivery']:5.2f} µs/delivery "
+              f"{res[which]['us_per_robot_tick']:5.2f} µs/robot-tick, {deliveries} deliveries "
               f"(runs: {', '.join(f'{t * 1e3:.0f}' for t in times[which])} ms)")
     print(f"new / base: {res['new']['median_s'] / res['base']['median_s']:.2f} (load {res['load']:.2f})")
     if args.out:

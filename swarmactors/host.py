@@ -35,6 +35,7 @@ from swarmactors.tasks import TaskSet
 from transport import Keys, Link, MalformedMessage, pack, seal, unseal
 from transport.auth import run_secret_from_env, verifies
 from transport.messages import (
+    PROTOCOL_VERSION,
     Deliveries,
     Delivery,
     Downlink,
@@ -396,6 +397,9 @@ class RobotHost:
                     raise RuntimeError(f"could not join {self.keys.join}: {exc}") from None
                 await asyncio.sleep(0.2)
         info = decode(reply, JoinReply, what="join reply")
+        if info.version != PROTOCOL_VERSION:  # e.g. lockstep steps changed from queries to puts in version 3
+            raise RuntimeError(f"the world speaks protocol version {info.version} and this host {PROTOCOL_VERSION}: "
+                               "run the same swarmactors version on both")
         self.name = info.host
         self.key = info.key
         self.run_info = info.run
