@@ -34,6 +34,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from transport import Keys, Link, MalformedMessage, PendingQuery, host_loss_s, new_key, pack, seal, unseal
+from transport.auth import verifies
 from transport.messages import (
     CLOCK_COMMANDS,
     MAX_PER_REQUEST,
@@ -512,7 +513,7 @@ class World:
         host = self.keys.host_of(key)
         entry = self.hosts.get(host)
         if entry is not None and not entry.alive:
-            if self.lockstep:  # a host lost to the watchdog that wakes up: it leaves with one line
+            if self.lockstep and verifies(entry.key, payload):  # a host lost to the watchdog wakes up: it leaves
                 self.link.publish(self.keys.down(host), self._down(host, Stop(self.tick, gone=True)))
             return
         msg = self._decode_up(host, payload)
