@@ -3,6 +3,7 @@
 
     python benchmarks/bench.py [--quick] [--out benchmarks/results.json] [--chart docs/img/bench_scaling.png]
     python benchmarks/bench.py --markdown benchmarks/results.json    # the tables of a results file, as Markdown
+    python benchmarks/bench.py --redraw benchmarks/results.json      # its chart
 
 Measures on this machine (docs/benchmarks.md explains each number; the measuring is in
 ``benchmarks/bench_measure.py``, the tables and the chart in ``benchmarks/bench_report.py``):
@@ -84,10 +85,15 @@ def main(argv: list[str] | None = None) -> int:
                     help="first wait up to SECONDS for the 1-minute load average to fall below 0.5")
     ap.add_argument("--markdown", type=Path, metavar="RESULTS_JSON",
                     help="print the tables of an existing results file as Markdown and exit (runs nothing)")
+    ap.add_argument("--redraw", type=Path, metavar="RESULTS_JSON",
+                    help="draw the chart of an existing results file (to --chart, default %s) and exit" % CHART)
     args = ap.parse_args(argv)
     console = Console(width=160) if not sys.stdout.isatty() else Console()
     if args.markdown:
         print(report.to_markdown(report.tables(json.loads(args.markdown.read_text()))), end="")
+        return 0
+    if args.redraw:
+        console.log(f"wrote {report.chart(json.loads(args.redraw.read_text()), args.chart or CHART)}")
         return 0
     cfg = dict(QUICK if args.quick else FULL)
     if args.repeats:

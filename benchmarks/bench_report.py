@@ -223,7 +223,7 @@ def chart(res: dict, path: Path) -> Path | None:
     by = _by(res)
     if not by:
         return None
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig, ax = plt.subplots(figsize=(7, 5))
     for k in sorted({k for _, k in by}):
         pts = sorted((n, c["robot_ticks_per_s_median"]) for (n, kk), c in by.items() if kk == k)
         ax.plot([n for n, _ in pts], [v for _, v in pts], marker="o", label=f"beacon, K = {k}")
@@ -251,7 +251,7 @@ def chart(res: dict, path: Path) -> Path | None:
     ax.set_title(f"Lockstep beacon, {m['nproc']} cores, load {m['loadavg_start'][0]:.1f} at start "
                  f"({res['config']['mode']})", fontsize=9)
     ax.grid(True, which="both", linewidth=0.3)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=3)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
