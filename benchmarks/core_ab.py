@@ -39,7 +39,7 @@ def main():
     sc = {"run": {"name": "ab", "seed": 1, "ticks": ticks, "trace": False},
           "radio": {"range": 1.5},
           "robots": [{"count": n, "placement": "grid", "spacing": 1.0,
-                      "behaviors": [{"use": "protocols.beacon:Beacon", "every": 1}]}]}
+                      "behaviors": [{"use": "beacon", "every": 1}]}]}
     t0 = os.times()
     r = run(sc, out=out, processes=2)
     t1 = os.times()

@@ -1,11 +1,12 @@
 """The robot host: many robot actors in one asyncio loop over one Zenoh session.
 
 A host joins the world (``world/join``), receives its robots (ids assigned by
-the world), and runs them. In lockstep each step is one Zenoh query on
-``up/{host}`` carrying all its robots' outputs of the previous tick; the reply
-carries the next tick's inputs. In realtime the host publishes frames on
-``up/{host}`` the moment its robots send them and handles deliveries as they
-arrive on ``down/{host}``.
+the world), subscribes to ``down/{host}`` and registers with one query on
+``up/{host}``. In lockstep each step is then one put on ``up/{host}`` carrying
+all its robots' outputs of the tick; the next tick's inputs arrive as one put
+on ``down/{host}`` (not as a query's reply: Zenoh keeps a query's state until
+its timeout). In realtime the host publishes frames on ``up/{host}`` the moment
+its robots send them and handles deliveries as they arrive on ``down/{host}``.
 
 A robot whose hook raises is crashed (the error goes to the world and into
 result.json); a robot whose step does not finish within ``watchdog_s`` is
@@ -34,6 +35,7 @@ from swarmactors.tasks import TaskSet
 from transport import Keys, Link, MalformedMessage, pack, seal, unseal
 from transport.auth import run_secret_from_env, verifies
 from transport.messages import (
+    PROTOCOL_VERSION,
     Deliveries,
     Delivery,
     Downlink,
@@ -97,6 +99,7 @@ class Robot:
         self._catch_all = [b.on_frame for b in self.behaviors if not b.kinds]
         self._by_kind: dict[str, list] = {}
         self._batch_hooks = [b.on_batch for b in self.behaviors if type(b).on_batch is not Behavior.on_batch]
+        self._tick_hooks = [b.on_tick for b in self.behaviors]
 
     def handlers(self, kind: str) -> list:
         """The on_frame hooks for ``kind``: behaviours that own it, or own no kind at all."""
@@ -107,38 +110,68 @@ class Robot:
         return hs
 
     # -- one step --------------------------------------------------------
-    def start_calls(self) -> Iterator[tuple]:
+    # Each of these generators calls the hooks itself, in order, and yields only the awaitable a hook
+    # returned (an ``async def`` hook): ``run_calls`` awaits it and resumes the generator. A plain hook
+    # costs its own call and nothing else (no tuple per call, no check beyond ``is not None``).
+    def start_calls(self) -> Iterator[Any]:
         """``on_start`` of every behaviour, once, before any other hook."""
         if not self.started:
             self.started = True
+            ctx = self.ctx
             for b in self.behaviors:
-                yield b.on_start, (self.ctx,)
+                r = b.on_start(ctx)
+                if r is not None and inspect.isawaitable(r):
+                    yield r
 
-    def calls(self, frames: list[Frame], sensed) -> Iterator[tuple]:
-        """The hook calls of one lockstep step, in order: start, frames (by src, seq), batch, due timers, tick."""
+    def calls(self, frames: list[Frame], sensed) -> Iterator[Any]:
+        """The hooks of one lockstep step, in order: start, frames (by src, seq), batch, due timers, tick."""
         ctx = self.ctx
-        yield from self.start_calls()
+        if not self.started:
+            yield from self.start_calls()
+        by_kind = self._by_kind
         for frame in frames:
-            for h in self.handlers(frame.kind):
-                yield h, (ctx, frame)
-        if frames:
+            hs = by_kind.get(frame.kind)
+            if hs is None:
+                hs = self.handlers(frame.kind)
+            for h in hs:
+                r = h(ctx, frame)
+                if r is not None and inspect.isawaitable(r):
+                    yield r
+        if frames and self._batch_hooks:
             yield from self.batch_calls()
-        for fn in self.due_timers():
-            yield fn, ()
-        for b in self.behaviors:
-            yield b.on_tick, (ctx, sensed)
+        if ctx._timers:
+            for fn in self.due_timers():
+                r = fn()
+                if r is not None and inspect.isawaitable(r):
+                    yield r
+        for h in self._tick_hooks:
+            r = h(ctx, sensed)
+            if r is not None and inspect.isawaitable(r):
+                yield r
 
-    def frame_calls(self, frames: list[Frame]) -> Iterator[tuple]:
-        """Realtime: the hook calls for one delivery batch: each frame, then ``on_batch`` (``on_start`` first)."""
+    def frame_calls(self, frames: list[Frame]) -> Iterator[Any]:
+        """Realtime: the hooks for one delivery batch: each frame, then ``on_batch`` (``on_start`` first)."""
         yield from self.start_calls()
+        ctx = self.ctx
         for frame in frames:
             for h in self.handlers(frame.kind):
-                yield h, (self.ctx, frame)
+                r = h(ctx, frame)
+                if r is not None and inspect.isawaitable(r):
+                    yield r
         yield from self.batch_calls()
 
-    def batch_calls(self) -> Iterator[tuple]:
-        for b in self._batch_hooks:
-            yield b, (self.ctx,)
+    def timer_calls(self, fn) -> Iterator[Any]:
+        """Realtime: one due timer."""
+        r = fn()
+        if r is not None and inspect.isawaitable(r):
+            yield r
+
+    def batch_calls(self) -> Iterator[Any]:
+        ctx = self.ctx
+        for h in self._batch_hooks:
+            r = h(ctx)
+            if r is not None and inspect.isawaitable(r):
+                yield r
 
     def due_timers(self) -> list:
         timers = self.ctx._timers
@@ -190,25 +223,24 @@ class Robot:
         return rep
 
 
-def run_calls(robot: Robot, calls: Iterator[tuple]) -> Any:
-    """Run hook calls until one returns an awaitable; return the rest as a coroutine, or None."""
+def run_calls(robot: Robot, calls: Iterator[Any]) -> Any:
+    """Run hooks (``Robot.calls`` and the like) until one returns an awaitable; the rest as a coroutine, or None.
+
+    A hook that raises crashes its robot, and the robot's later hooks of this step are not called.
+    """
     try:
-        for fn, args in calls:
-            result = fn(*args)
-            if result is not None and inspect.isawaitable(result):
-                return _finish(robot, result, calls)
+        for first in calls:
+            return _finish(robot, first, calls)
     except Exception as exc:
         robot.fail(exc)
     return None
 
 
-async def _finish(robot: Robot, first, rest: Iterator[tuple]) -> None:
+async def _finish(robot: Robot, first, rest: Iterator[Any]) -> None:
     try:
         await first
-        for fn, args in rest:
-            result = fn(*args)
-            if result is not None and inspect.isawaitable(result):
-                await result
+        for awaitable in rest:
+            await awaitable
     except asyncio.CancelledError:
         raise
     except Exception as exc:
@@ -273,27 +305,54 @@ def _unless_timeout(exc: BaseException) -> None:
         log.error("robot task failed: %r", exc, exc_info=exc)
 
 
+_UNSEEN = object()
+_replace = msgspec.structs.replace
+
+
 class FrameTable:
-    """A downlink's frames, handed out so that robots share nothing.
+    """A downlink's frames, decoded once per host and handed out so that robots share nothing.
 
     A body is decoded once; an immutable one (a number, string, bytes, None) is shared by every receiver,
     a list or map is decoded again for each further receiver, so no robot sees another's changes.
     """
 
-    __slots__ = ("_frames", "_given")
+    __slots__ = ("_frames", "_given", "_again")
 
     def __init__(self, frames: list[FrameIn]):
         self._frames = frames
-        self._given: dict[int, Frame | None] = {}
+        self._given: list[Any] = [_UNSEEN] * len(frames)  # the first receiver's Frame (None: undecodable)
+        self._again: list[bytes | None] = [None] * len(frames)  # the body to decode for further receivers
+
+    def _first(self, k: int) -> Frame | None:
+        f = self._frames[k]
+        frame = self._given[k] = decode_body(f)
+        if frame is not None and isinstance(frame.body, (list, dict)):
+            self._again[k] = f.body
+        return frame
 
     def frame(self, k: int) -> Frame | None:
-        if k not in self._given:
-            frame = self._given[k] = decode_body(self._frames[k])
-            return frame
         frame = self._given[k]
-        if frame is None or not isinstance(frame.body, (list, dict)):
-            return frame
-        return decode_body(self._frames[k])
+        if frame is _UNSEEN:
+            return self._first(k)
+        again = self._again[k]
+        return frame if again is None else _replace(frame, body=_body_decoder.decode(again))
+
+    def inbox(self, refs: list[int]) -> tuple[list[Frame], int]:
+        """One robot's frames (its slice of the table, in order) and how many had a body that does not decode."""
+        given, again = self._given, self._again
+        out: list[Frame] = []
+        bad = 0
+        for k in refs:
+            frame = given[k]
+            if frame is _UNSEEN:
+                frame = self._first(k)
+            elif again[k] is not None:
+                frame = _replace(frame, body=_body_decoder.decode(again[k]))
+            if frame is None:
+                bad += 1
+            else:
+                out.append(frame)
+        return out, bad
 
 
 class RobotHost:
@@ -338,6 +397,9 @@ class RobotHost:
                     raise RuntimeError(f"could not join {self.keys.join}: {exc}") from None
                 await asyncio.sleep(0.2)
         info = decode(reply, JoinReply, what="join reply")
+        if info.version != PROTOCOL_VERSION:  # e.g. lockstep steps changed from queries to puts in version 3
+            raise RuntimeError(f"the world speaks protocol version {info.version} and this host {PROTOCOL_VERSION}: "
+                               "run the same swarmactors version on both")
         self.name = info.host
         self.key = info.key
         self.run_info = info.run
@@ -396,8 +458,11 @@ class RobotHost:
         ctx._rays = None if rays is None else tuple(rays)
         ctx.pose = np.array(pose, dtype=float)
         ctx._set_time(self.tick, now)
-        # each robot its own dict, with the objects it knows
-        ctx.objects = {name: list(pos) for name, pos in objects.items() if known is None or name in known}
+        # each robot its own dict, with the objects it knows (an empty one left empty is kept)
+        if objects:
+            ctx.objects = {name: list(pos) for name, pos in objects.items() if known is None or name in known}
+        elif ctx.objects:
+            ctx.objects = {}
 
     def _verify_join(self, data: bytes) -> bool:
         return self._verify(self.run_secret, data)
@@ -411,21 +476,37 @@ class RobotHost:
         return False
 
     async def _ask(self, uplink: str, data: bytes, timeout: float) -> Downlink:  # noqa: ASYNC109 — a Zenoh query's own timeout
+        """One query on ``up/{host}`` (registration, final reports) and its authentic reply, decoded."""
         reply = await self.link.query(uplink, data, timeout=timeout, accept=lambda d: self._verify(self.key, d))
         return decode(unseal(self.key, reply, what="downlink"), Downlink, what="downlink")
 
     # -- lockstep --------------------------------------------------------------
     async def _run_lockstep(self) -> None:
+        """Register, then step each tick's inputs from ``down/{host}`` and put the outputs on ``up/{host}``."""
         uplink = self.keys.up(self.name)
-        timeout = 24 * 3600.0  # the world's watchdog, not this query, bounds a step
-        msg = await self._ask(uplink, self._uplink(-1), timeout)
-        while isinstance(msg, Inputs):
-            self.tick = msg.tick
-            out = await self._step_lockstep(msg)
-            msg = await self._ask(uplink, self._uplink(self.tick, out), timeout)
-        self.gone = isinstance(msg, Stop) and msg.gone
-        if isinstance(msg, Stop) and not (msg.gone or msg.bye):
+        self._inbox: asyncio.Queue[Downlink] = asyncio.Queue()
+        self.link.subscribe(self.keys.down(self.name), self._on_down)
+        msg = await self._ask(uplink, self._uplink(-1), 30.0)  # an Ack, or Stop(gone) if the world lost us already
+        while not isinstance(msg, Stop):
+            msg = await self._inbox.get()
+            while isinstance(msg, Inputs):
+                self.tick = msg.tick
+                out = await self._step_lockstep(msg)
+                self.link.publish(uplink, self._uplink(self.tick, out))
+                msg = await self._inbox.get()
+        self.gone = msg.gone
+        if not (msg.gone or msg.bye):
             await self._send_reports(uplink)
+
+    def _lockstep_down(self, msg: Downlink) -> None:
+        """Queue a lockstep downlink, unless it is stale (a replay: inputs of a tick stepped, an old stop)."""
+        if not isinstance(msg, Inputs | Stop):
+            return
+        if msg.tick <= self.tick if isinstance(msg, Inputs) else msg.tick < self.tick:
+            self.bad_downlinks += 1
+            log.warning("host %s dropped a stale downlink (tick %d, at tick %d)", self.name, msg.tick, self.tick)
+            return
+        self._inbox.put_nowait(msg)
 
     async def _step_lockstep(self, msg: Inputs) -> list[RobotOut]:
         self._take_membership(msg)
@@ -441,13 +522,18 @@ class RobotHost:
                     stepped.append(robot)  # tell the world once why this robot is gone
                 continue
             self._set_inputs(robot, row.pose, now, objects, row.objects, row.rays)
-            inbox = [frames.frame(k) for k in row.inbox]
             if row.rab is not None:  # each receiver's own range and bearing (frame.rab)
+                inbox = [frames.frame(k) for k in row.inbox]
                 inbox = [f if f is None else msgspec.structs.replace(f, rab=(row.rab[2 * j], row.rab[2 * j + 1]))
                          for j, f in enumerate(inbox)]
-            if None in inbox:
-                robot.bad_bodies += inbox.count(None)
-                inbox = [f for f in inbox if f is not None]
+                if None in inbox:
+                    robot.bad_bodies += inbox.count(None)
+                    inbox = [f for f in inbox if f is not None]
+            elif row.inbox:
+                inbox, bad = frames.inbox(row.inbox)
+                robot.bad_bodies += bad
+            else:
+                inbox = []
             ids, flat = row.sensed
             rest = run_calls(robot, robot.calls(inbox, SensedView(ids, flat, dims, robot.local)))
             if rest is not None:
@@ -500,7 +586,7 @@ class RobotHost:
             def fire() -> None:
                 if robot.alive and not self._stopped.is_set():
                     robot.ctx._set_time(self.tick, self._rt_now())
-                    self._rt_run(robot, iter([(fn, ())]))
+                    self._rt_run(robot, robot.timer_calls(fn))
                     self._rt_flush([robot])
 
             self._loop.call_later(max(0.0, delay), fire)
@@ -511,12 +597,16 @@ class RobotHost:
         return time.time() - (self._epoch or time.time())
 
     def _on_down(self, key: str, payload: bytes) -> None:
+        """A message on ``down/{host}``: kept only when it is sealed under this host's key."""
         if not self._verify(self.key, payload):
             return
         try:
             msg = decode(unseal(self.key, payload, what="downlink"), Downlink, what="downlink")
         except MalformedMessage as exc:
             log.warning("%s", exc)
+            return
+        if self.run_info.clock == "lockstep":
+            self._lockstep_down(msg)
             return
         if isinstance(msg, Stop):
             self._stopped.set()

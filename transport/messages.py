@@ -21,7 +21,7 @@ import msgspec
 from transport.codec import MalformedMessage
 
 INT64 = 1 << 63
-PROTOCOL_VERSION = 2
+PROTOCOL_VERSION = 3  # 3: lockstep steps are puts on up/{host}, inputs puts on down/{host} (issue 28)
 
 # Why the world did not deliver a frame to a robot (or refused a message): the counters, result.json,
 # the trace, the sweep CSV and the viewer all use these names.
@@ -120,7 +120,7 @@ class RobotOut(_Row):
 class Uplink(_Message):
     """A host's message to the world (sealed with the host's key).
 
-    In lockstep it is the step query of tick ``tick`` (-1: registration); in realtime a put of frames sent
+    In lockstep it is the step put of tick ``tick`` (-1: the registration query); in realtime a put of frames sent
     now. ``reports`` (robot id -> report) comes once, at the end.
     """
 

@@ -14,10 +14,11 @@ this one holds the hosts that run robots and the order of a tick, read top to bo
 6. record what happened (world/counters.py: the trace record and counters; the ``state`` stream);
 7. integrate motion to the next tick's positions (world/kinematics.py).
 
-Every message in or out is a ``transport.messages`` type. In lockstep a host's step is a Zenoh query on
-``up/{host}`` carrying its outputs of the previous tick; the world answers it with the next tick's inputs
-only once every live host is in. No input can be lost to a start-up race, and the query itself is the
-barrier.
+Every message in or out is a ``transport.messages`` type. In lockstep a host registers with one Zenoh query on
+``up/{host}``, then each step is a put on ``up/{host}`` carrying its outputs of the previous tick; the world
+puts the next tick's inputs on ``down/{host}`` only once every live host is in (the barrier). The host
+subscribes to ``down/{host}`` before it registers, so no input can be lost to a start-up race. Steps are not
+queries because Zenoh keeps every query's state until its timeout (docs/benchmarks.md, "A host's memory").
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from transport import Keys, Link, MalformedMessage, PendingQuery, host_loss_s, new_key, pack, seal, unseal
+from transport.auth import verifies
 from transport.messages import (
     CLOCK_COMMANDS,
     MAX_PER_REQUEST,
@@ -144,9 +146,9 @@ class World:
         self.reports: dict[int, dict] = {}
         self._last_seq: dict[int, int] = {}  # each robot's last accepted frame seq
         # lockstep: frames in the air by due tick, as batches (frames, Decision of their deliveries, send tick);
-        # each host's pending step (tick, query, uplink)
+        # each host's pending step (tick, uplink; -1: registration)
         self._due: dict[int, list[tuple[list[Outgoing], Decision, int]]] = defaultdict(list)
-        self._held: dict[str, tuple[int, PendingQuery | None, Uplink | None]] = {}
+        self._held: dict[str, tuple[int, Uplink | None]] = {}
         self._all_stepped = asyncio.Event()
         self._awaited_tick = -1
         self._ready = asyncio.Event()
@@ -245,14 +247,13 @@ class World:
         self._awaited_tick = self.tick
         self._all_stepped.clear()
         for host in self._live_hosts():
-            # a host that joined since the last tick may not have sent its registration step yet: it gets
+            # a host that joined since the last tick may not have sent its registration yet: it gets
             # inputs from the tick after its registration arrives (_all_in counts a registration as in)
-            _, q, _ = self._held.pop(host, (None, None, None))
-            if q is not None:
-                q.reply(self._down(host, self._inputs_for(host, inbox)))
+            if self._held.pop(host, None) is not None:
+                self.link.publish(self.keys.down(host), self._down(host, self._inputs_for(host, inbox)))
         await self._await_steps()
         for host in sorted(self._live_hosts()):
-            t, _, msg = self._held.get(host, (None, None, None))
+            t, msg = self._held.get(host, (None, None))
             if t == self.tick:
                 self._take(host, msg)
 
@@ -423,6 +424,11 @@ class World:
 
     # ------------------------------------------------------------ uplinks
     def _on_step_query(self, q: PendingQuery) -> None:
+        """A query on ``up/{host}``: the host's registration (tick -1) or its final reports, in either clock.
+
+        Each is answered at once. Lockstep steps are puts (``_on_up_put``): a query stays in Zenoh's memory
+        until its timeout, so one per tick would grow a host by about 0.8 KB a step.
+        """
         host = self.keys.host_of(q.key)
         entry = self.hosts.get(host)
         if entry is not None and not entry.alive:
@@ -436,32 +442,51 @@ class World:
             self._take(host, msg)
             q.reply(self._down(host, Ack(self.clock.epoch)))
             if msg.tick == -1:
-                self._held[host] = (-1, None, None)
+                self._held[host] = (-1, None)
                 self._check_ready()
                 if self.collecting:  # registered after the stop went out: it gets its own
                     self.link.publish(self.keys.down(host), self._down(host, Stop(self.tick)))
             return
-        if self.collecting and msg.reports is None:  # a step that arrives after the stop: its host reports now
-            q.reply(self._down(host, Stop(self.tick)))
-            return
-        if host in self._held:  # one step per host per tick: a second one is a replay or a forgery
-            self.record.malformed(None, f"second step from {host} while one is pending (tick {msg.tick})")
-            q.reply_error("a step from this host is already pending")
-            return
-        problem = self._step_problem(entry, msg)
-        if problem:  # stale, future or repeated: never held, so it cannot stand in for the awaited step
+        if msg.tick != -1 and msg.reports is None:
+            problem = self._step_problem(entry, msg) or f"a step of tick {msg.tick} as a query (steps are puts)"
             self.record.malformed(None, f"step from {host}: {problem}")
             q.reply_error(problem)
             return
-        if msg.tick == -1:
+        problem = self._step(host, entry, msg)
+        if problem:
+            q.reply_error(problem)
+        else:
+            q.reply(self._down(host, Stop(self.tick, bye=True) if msg.reports is not None else Ack(0.0)))
+
+    def _step(self, host: str, entry: HostEntry, msg: Uplink) -> str | None:
+        """Lockstep: hold a host's registration or step for the barrier, or take its reports; the problem if not.
+
+        A step or registration that arrives after the run ended is answered with ``Stop``: its host reports now.
+        """
+        if self.collecting and msg.reports is None:
             entry.registered = True
+            self.link.publish(self.keys.down(host), self._down(host, Stop(self.tick)))
+            return None
+        if host in self._held:  # one step per host per tick: a second one is a replay or a forgery
+            problem = f"a second step while one is pending (tick {msg.tick})"
+        elif msg.reports is not None and entry.reported:
+            problem = "a second report"
+        else:
+            problem = self._step_problem(entry, msg)  # stale, future or repeated: never held
+        if problem:
+            self.record.malformed(None, f"step from {host}: {problem}")
+            return problem
         if msg.reports is not None:
             self._take_reports(host, msg.reports)
-        self._held[host] = (msg.tick, q, msg)
+            return None
+        if msg.tick == -1:
+            entry.registered = True
+        self._held[host] = (msg.tick, msg)
         if not self.started:
             self._check_ready()
         elif self._all_in():
             self._all_stepped.set()
+        return None
 
     def _step_problem(self, entry: HostEntry, msg: Uplink) -> str | None:
         """Why a lockstep step is not the one awaited from this host (None if it is).
@@ -484,12 +509,14 @@ class World:
         host = self.keys.host_of(key)
         entry = self.hosts.get(host)
         if entry is not None and not entry.alive:
+            if self.lockstep and verifies(entry.key, payload):  # a host lost to the watchdog wakes up: it leaves
+                self.link.publish(self.keys.down(host), self._down(host, Stop(self.tick, gone=True)))
             return
         msg = self._decode_up(host, payload)
         if msg is None:
             return
         if self.lockstep:
-            self.record.malformed(None, f"put on up/{host} in lockstep (steps must be queries)")
+            self._step(host, entry, msg)
             return
         self._take(host, msg)
 
@@ -675,9 +702,9 @@ class World:
         self.record.event(self.tick, {"host_lost": host, "cause": cause})
         for rid in sorted(entry.robots):
             self.faults.crash(rid, self.tick, cause)
-        _, q, _ = self._held.pop(host, (None, None, None))
-        if q is not None:  # a step it had pending is answered: this host is gone (it leaves with one line)
-            q.reply(self._down(host, Stop(self.tick, gone=True)))
+        self._held.pop(host, None)
+        if self.lockstep:  # a host that is only slow reads this when it wakes, and leaves with one line
+            self.link.publish(self.keys.down(host), self._down(host, Stop(self.tick, gone=True)))
         if self.started and self._all_in():
             self._all_stepped.set()
         self._check_reports_in()
@@ -786,12 +813,11 @@ class World:
         stop = Stop(self.tick)
         self.collecting = True
         self._check_reports_in()
-        if self.lockstep:
+        if self.lockstep:  # to the hosts waiting for inputs; a step still on its way gets its Stop when it comes
             self._awaited_tick = self.tick
             for host in self._live_hosts():
-                held = self._held.pop(host, None)
-                if held is not None and held[1] is not None:
-                    held[1].reply(self._down(host, stop))
+                if self._held.pop(host, None) is not None:
+                    self.link.publish(self.keys.down(host), self._down(host, stop))
         else:
             for host in self._live_hosts():
                 self.link.publish(self.keys.down(host), self._down(host, stop))
@@ -800,11 +826,6 @@ class World:
             await asyncio.wait_for(self._final_reports.wait(), wait)
         except TimeoutError:
             log.warning("some hosts sent no final report")
-        if self.lockstep:
-            for host in list(self._held):
-                _, q, _ = self._held.pop(host)
-                if q is not None:
-                    q.reply(self._down(host, Stop(self.tick, bye=True)))
 
     # ------------------------------------------------------------ summary
     def summary(self) -> dict:

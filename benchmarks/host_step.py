@@ -1,0 +1,171 @@
+#!/usr/bin/env python
+"""A robot host's lockstep step alone, this tree against a baseline commit: decode the inputs, step, encode.
+
+    python benchmarks/host_step.py [--base COMMIT] [--n 1000] [--ticks 30] [--repeats 7] [--profile]
+
+One host runs N beacon robots on a grid (spacing 0.5, range 0.75: up to 8 neighbours, as scenarios/beacon.toml).
+The tick inputs are built once, the way the world builds them (``transport.messages.Inputs``: a frame table
+with each frame once, every robot's inbox as indices into it, its sensed neighbours), and encoded; what is
+timed is what a host does with them: ``decode`` of the downlink, ``RobotHost._step_lockstep`` (hook dispatch,
+the beacon's own hooks, frame bodies) and the uplink's ``encode`` — no Zenoh, no world. The baseline's
+``swarmactors/host.py`` is read from git (``git show COMMIT:swarmactors/host.py``) and loaded beside this
+tree's under another module name; both run in this process with the product's GC setting
+(``swarmactors.hosting.quiet_gc``), interleaved (A B B A …), ``--repeats`` times each. The robots' reports
+must agree. ``--profile`` prints a cProfile of this tree's step instead. Nothing is asserted; the numbers go to
+docs/benchmarks.md ("A robot host's step").
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import cProfile
+import importlib.util
+import json
+import os
+import pstats
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from swarmactors.hosting import quiet_gc
+from transport.codec import pack
+from transport.messages import Downlink as DownlinkType
+from transport.messages import FrameIn, Inputs, RobotDescr, RobotIn, RunInfo, Uplink, decode, encode
+
+ROOT = Path(__file__).resolve().parent.parent
+if str(ROOT / "benchmarks") not in sys.path:  # idle_behavior
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+
+
+def load_host(commit: str | None):
+    """``swarmactors.host`` of this tree (None) or of ``commit``, as a separate module."""
+    if commit is None:
+        import swarmactors.host as mod
+        return mod
+    source = subprocess.run(["git", "-C", str(ROOT), "show", f"{commit}:swarmactors/host.py"], check=True,
+                            capture_output=True, text=True).stdout
+    path = Path(tempfile.gettempdir()) / f"host_{commit[:12]}.py"
+    path.write_text(source)
+    spec = importlib.util.spec_from_file_location(f"host_{commit[:12]}", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+class _NoLink:
+    def publish(self, *a, **k) -> None:
+        pass
+
+
+def grid(n: int, spacing: float = 0.5) -> np.ndarray:
+    side = int(np.ceil(np.sqrt(n)))
+    return np.array([[spacing * (i % side), spacing * (i // side)] for i in range(n)])
+
+
+def build_inputs(n: int, ticks: int, idle: bool = False) -> tuple[list[bytes], list[RobotDescr]]:
+    """Each tick's encoded inputs for one host running all ``n`` robots (frames of tick t - 1 delivered at t).
+
+    ``idle``: robots that do nothing (``idle_behavior:Idle``), so no frames: the host's own cost per robot.
+    """
+    pos = grid(n)
+    plain = pos.tolist()
+    d = np.linalg.norm(pos[:, None, :] - pos[None, :, :], axis=2)
+    nbrs = [np.flatnonzero((d[i] <= 0.75) & (np.arange(n) != i)).tolist() for i in range(n)]
+    use = "idle_behavior:Idle" if idle else "beacon"
+    descr = [RobotDescr(i, [*plain[i], 0.0], [{"use": use}], "ground", 0.75, 0.75, 1.0) for i in range(n)]
+    out = []
+    for t in range(ticks):
+        body = pack([float(t - 1), b"\x00" * 8])
+        table = [FrameIn(s, "BEACON", t, body, float(t - 1)) for s in range(n)] if t and not idle else []
+        rows = []
+        for i in range(n):
+            ids = nbrs[i]
+            flat = np.round(pos[ids], 6).ravel().tolist()
+            rows.append(RobotIn(i, [*plain[i], 0.0], (ids, flat), list(ids) if table else []))
+        out.append(encode(Inputs(t, float(t), rows, table, {})))
+    return out, descr
+
+
+def run_once(mod, inputs: list[bytes], descr: list[RobotDescr]) -> tuple[float, int, dict]:
+    """CPU seconds for the host of ``mod`` to take ``inputs`` tick by tick; deliveries; the robots' reports."""
+    host = mod.RobotHost(_NoLink(), mod.Keys("bench"), allow=("idle_behavior",))
+    host.name, host.key = "h0", b"k" * 32
+    host.run_info = RunInfo("lockstep", 1.0, 1, len(inputs), 10.0, 0)
+    for dsc in descr:
+        host._adopt(dsc)
+    deliveries = 0
+
+    async def steps() -> float:
+        nonlocal deliveries
+        t0 = time.process_time()  # CPU time: the machine is shared, and this is one thread's work
+        for data in inputs:
+            msg = decode(data, DownlinkType, what="downlink")
+            host.tick = msg.tick
+            deliveries += sum(len(r.inbox) for r in msg.robots)
+            rows = await host._step_lockstep(msg)
+            encode(Uplink(host.name, host.tick, rows))
+        return time.process_time() - t0
+
+    with quiet_gc():
+        wall = asyncio.run(steps())
+    reports = {rid: r.report() for rid, r in host.robots.items()}
+    return wall, deliveries, reports
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--base", default="e83c6c9", help="baseline commit (default: before issue 21's host changes)")
+    ap.add_argument("--n", type=int, default=1000)
+    ap.add_argument("--ticks", type=int, default=30)
+    ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--profile", action="store_true")
+    ap.add_argument("--idle", action="store_true", help="robots that do nothing (no frames): the host's own cost")
+    ap.add_argument("--out", type=Path, default=None, help="write the runs as JSON here")
+    args = ap.parse_args(argv)
+    inputs, descr = build_inputs(args.n, args.ticks, args.idle)
+    new = load_host(None)
+    if args.profile:
+        prof = cProfile.Profile()
+        prof.enable()
+        run_once(new, inputs, descr)
+        prof.disable()
+        pstats.Stats(prof).sort_stats("tottime").print_stats(20)
+        return 0
+    base = load_host(args.base)
+    times: dict[str, list[float]] = {"base": [], "new": []}
+    reports = {}
+    order = ["base", "new", "new", "base"]
+    for i in range(args.repeats * 2):
+        which = order[i % 4]
+        wall, deliveries, reps = run_once(base if which == "base" else new, inputs, descr)
+        times[which].append(wall)
+        reports[which] = reps
+    if reports["base"] != reports["new"]:
+        print("the two hosts' robots reported differently", file=sys.stderr)
+        return 1
+    robot_ticks = args.n * args.ticks
+    res = {"n": args.n, "ticks": args.ticks, "behavior": "idle" if args.idle else "beacon", "deliveries": deliveries,
+           "base": args.base,
+           "load": os.getloadavg()[0], "runs_s": times}
+    for which in ("base", "new"):
+        med = statistics.median(times[which])
+        res[which] = {"median_s": med, "us_per_robot_tick": 1e6 * med / robot_ticks,
+                      "us_per_delivery": 1e6 * med / deliveries if deliveries else None,
+                      "robot_ticks_per_s": robot_ticks / med}
+        print(f"{which:5s} median {med * 1e3:7.1f} ms for {args.ticks} ticks: "
+              f"{res[which]['us_per_robot_tick']:5.2f} µs/robot-tick, {deliveries} deliveries "
+              f"(runs: {', '.join(f'{t * 1e3:.0f}' for t in times[which])} ms)")
+    print(f"new / base: {res['new']['median_s'] / res['base']['median_s']:.2f} (load {res['load']:.2f})")
+    if args.out:
+        args.out.write_text(json.dumps(res, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
