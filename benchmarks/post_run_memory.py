@@ -68,6 +68,7 @@ def main() -> None:
     ap.add_argument("--code", help="a checkout of swarmactors to measure instead of the installed one")
     ap.add_argument("--only", nargs="*", help="names (or prefixes) of the steps to run")
     args = ap.parse_args()
+    args.out = str(Path(args.out).resolve())
     trace = Path(args.out) / "trace.msgpack"
     env = dict(os.environ)
     if args.code:

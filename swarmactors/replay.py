@@ -2,8 +2,10 @@
 
 ``Replay(trace)`` reads a trace file (and the ``result.json`` beside it, when
 there is one, for robot ranges and log lines) and gives the ``Scene`` at any
-tick. Scenes are rebuilt from checkpoints taken every ``CHECKPOINT_EVERY``
-ticks, so a seek costs at most that many records.
+tick. It holds no tick record: it keeps each record's byte offset and reads the
+records it needs from the file (a temporary decompressed copy of a zstd trace).
+Scenes are rebuilt from checkpoints taken every ``CHECKPOINT_EVERY`` ticks (at
+most ``CHECKPOINTS_MAX`` of them), so a seek reads at most that many records.
 
 ``render(trace, out)`` draws one frame per rendered tick (every ``every``-th
 tick, and the last) into a GIF (Pillow) or an MP4 (ffmpeg), each with the
@@ -14,16 +16,18 @@ from __future__ import annotations
 
 import bisect
 import json
+from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from swarmactors.scene import Scene
+from swarmactors.scene import RECENT_TICKS, Scene
 from swarmactors.trace import TraceError, TraceHasher, footer_problem, iter_offsets, plain_copy
 
 CHECKPOINT_EVERY = 64
+CHECKPOINTS_MAX = 128  # a longer trace spaces its checkpoints further apart: the scenes kept stay O(N) in all
 
 
 class Records(Sequence):
@@ -71,8 +75,10 @@ class Replay:
     """A trace file as a sequence of scenes.
 
     The trace is read once on opening (checked, its hashes verified) keeping only each record's tick and byte
-    offset; a scene is rebuilt from the nearest checkpoint (a scene every ``CHECKPOINT_EVERY`` records, kept
-    as they are reached) by reading the records after it. Memory: O(N) per checkpoint, no tick record kept.
+    offset; a scene is rebuilt from the nearest checkpoint (a scene every ``CHECKPOINT_EVERY`` records, or
+    fewer so that there are at most ``CHECKPOINTS_MAX``, kept as they are reached) by reading the records
+    after it. A checkpoint keeps the indices of the scene's recent records, not the records: memory
+    O(N · CHECKPOINTS_MAX), no tick record kept.
     """
 
     def __init__(self, trace: str | Path, verify: bool = True):
@@ -129,7 +135,8 @@ class Replay:
                     self._base.ranges[int(rid)] = float(r["range"])
                 if r.get("log"):
                     self._base.logs[int(rid)] = list(r["log"])
-        self._checkpoints: list[tuple[int, Scene]] = []  # (index of the next record to feed, scene)
+        # (index of the next record to feed, the scene then without its recent records, their indices)
+        self._checkpoints: list[tuple[int, Scene, tuple[int, ...]]] = []
         self._full: Scene | None = None
 
     def _result_beside(self) -> dict | None:
@@ -150,20 +157,37 @@ class Replay:
         """The scene after tick ``t``'s record (clamped to the trace)."""
         idx = int(np.searchsorted(self._ticks, t, side="right"))  # records to feed: [0, idx)
         idx = max(1, min(idx, len(self.records)))
-        start, scene = 0, self._base
-        if self._checkpoints:
-            k = bisect.bisect_right([c[0] for c in self._checkpoints], idx) - 1
-            if k >= 0:
-                start, scene = self._checkpoints[k]
-        scene = scene.copy()
+        start, scene, recent = 0, self._base.copy(), deque(maxlen=RECENT_TICKS)
+        k = bisect.bisect_right([c[0] for c in self._checkpoints], idx) - 1
+        if k >= 0:
+            start, saved, recent_idx = self._checkpoints[k]
+            scene, recent = saved.copy(), deque(recent_idx, maxlen=RECENT_TICKS)
+            scene.recent = deque(self._read(recent_idx), maxlen=RECENT_TICKS)
+        every = max(CHECKPOINT_EVERY, -(-len(self.records) // CHECKPOINTS_MAX))
         for i, rec in enumerate(self.records.iter_from(start), start):
             if i >= idx:
                 break
             scene.feed_record(rec)
-            if (i + 1) % CHECKPOINT_EVERY == 0 and (not self._checkpoints or self._checkpoints[-1][0] < i + 1):
-                self._checkpoints.append((i + 1, scene.copy()))
+            if scene.recent and scene.recent[-1] is rec:
+                recent.append(i)
+            if (i + 1) % every == 0 and (not self._checkpoints or self._checkpoints[-1][0] < i + 1):
+                saved = scene.copy()
+                saved.recent = deque(maxlen=RECENT_TICKS)  # kept as record indices, read again on a seek
+                self._checkpoints.append((i + 1, saved, tuple(recent)))
         scene.finished = idx == len(self.records) and self.footer is not None
         return scene
+
+    def _read(self, indices: tuple[int, ...]) -> list[dict]:
+        """The records at ``indices`` (ascending), in one pass over the file from the first."""
+        want, out = set(indices), []
+        if not indices:
+            return out
+        for i, rec in enumerate(self.records.iter_from(indices[0]), indices[0]):
+            if i in want:
+                out.append(rec)
+            if i >= indices[-1]:
+                break
+        return out
 
     def full_scene(self) -> Scene:
         if self._full is None:
