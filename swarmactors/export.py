@@ -205,10 +205,11 @@ def export(run, out_dir: str | Path, fmt: str = "csv") -> list[Path]:
         columns, kinds, rows = _table(name, scenario, records)
         path = out_dir / f"{name}.{fmt}"
         if fmt == "csv":
+            nested = {c for c in columns if kinds.get(c, set()) & {list, dict, tuple}}  # written as JSON text
             with path.open("w", newline="") as f:
-                w = csv.DictWriter(f, fieldnames=columns, extrasaction="ignore")
-                w.writeheader()
-                w.writerows({k: _flat(v) for k, v in r.items()} for r in rows)
+                w = csv.writer(f)
+                w.writerow(columns)
+                w.writerows([_flat(r.get(c)) if c in nested else r.get(c) for c in columns] for r in rows)
         elif fmt == "json":
             with path.open("w") as f:
                 f.write("[")
