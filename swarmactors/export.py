@@ -26,6 +26,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
@@ -140,15 +141,21 @@ def pose_rows(records: list[dict], start: dict[int, float] | None = None) -> tup
     return pose_columns(records)[0], list(iter_pose_rows(records, start))
 
 
-def iter_frame_rows(records: Iterable[dict]) -> Iterator[dict]:
+def iter_frame_rows(records: Iterable[dict], within: int | None = None) -> Iterator[dict]:
     """Rows of every frame sent, delivered and dropped (see the module's docstring), streamed.
 
-    What it keeps: the kind, size and send tick of each frame sent so far (a delivery or drop names its frame
-    by (src, seq) only): O(frames), a few numbers each.
+    A delivery or drop names its frame by (src, seq) only, so the kind, size and send tick of each frame sent
+    are kept until no row can name it any more: ``within`` ticks after its send (lockstep: ``radio.latency``;
+    deliveries, and drops of receivers that died meanwhile, come exactly that many ticks after the send, other
+    drops at it), or to the end of the run when ``within`` is None (realtime).
     """
     meta: dict[tuple[int, int], tuple] = {}
+    sent_at: deque = deque()  # (send tick, [(src, seq), ...]) oldest first, when frames are forgotten
     for rec in records:
         t = rec["t"]
+        while within is not None and sent_at and sent_at[0][0] < t - within:
+            for key in sent_at.popleft()[1]:
+                meta.pop(key, None)
         for src, seq, dst, sent_tick in rec.get("del", ()):
             kind, size, _ = meta.get((src, seq), (None, None, None))
             yield {"tick": t, "src": src, "seq": seq, "kind": kind, "dst": dst, "size": size,
@@ -157,10 +164,21 @@ def iter_frame_rows(records: Iterable[dict]) -> Iterator[dict]:
             meta[src, seq] = (kind, size, t)
             yield {"tick": t, "src": src, "seq": seq, "kind": kind, "dst": dst, "size": size,
                    "outcome": "sent", "sent_tick": t}
+        if within is not None and rec.get("sent"):
+            sent_at.append((t, [(row[0], row[1]) for row in rec["sent"]]))
         for src, seq, dst, cause in rec.get("drop", ()):
             kind, size, sent_tick = meta.get((src, seq), (None, None, None))
             yield {"tick": t, "src": src, "seq": seq, "kind": kind, "dst": dst, "size": size,
                    "outcome": cause, "sent_tick": sent_tick}
+
+
+def frame_window(scenario: dict) -> int | None:
+    """How long after its send a frame can still be named by a trace row (``iter_frame_rows``'s ``within``)."""
+    run, radio = scenario.get("run") or {}, scenario.get("radio") or {}
+    latency = radio.get("latency")
+    if run.get("clock", "lockstep") == "lockstep" and isinstance(latency, int) and not isinstance(latency, bool):
+        return latency
+    return None
 
 
 def frame_rows(records: list[dict]) -> list[dict]:
@@ -178,7 +196,7 @@ def _table(name: str, scenario: dict, records: Callable[[], Iterator[dict]]):
         columns, kinds = pose_columns(records())
         kinds = kinds | {"tick": {int}, "id": {int}, "x": {float}, "y": {float}, "z": {float}, "heading": {float}}
         return columns, kinds, iter_pose_rows(records(), initial_headings(scenario))
-    return list(FRAME_COLUMNS), FRAME_KINDS, iter_frame_rows(records())
+    return list(FRAME_COLUMNS), FRAME_KINDS, iter_frame_rows(records(), frame_window(scenario))
 
 
 def tables(run) -> dict[str, tuple[list[str], list[dict]]]:

@@ -53,6 +53,16 @@ def test_frame_rows():
     assert rows[3]["kind"] == "YO" and rows[3]["sent_tick"] == 1
 
 
+def test_frames_are_forgotten_once_no_row_can_name_them():
+    recs = [{"t": 0, "sent": [[0, 1, "A", None, 3]]}, {"t": 1, "del": [[0, 1, 1, 0]]},
+            {"t": 3, "del": [[0, 1, 2, 0]], "drop": [[0, 1, 3, "dead"]]}]
+    kept = [r["kind"] for r in ex.iter_frame_rows(recs)]
+    assert kept == ["A", "A", "A", "A"]
+    assert [r["kind"] for r in ex.iter_frame_rows(recs, within=1)] == ["A", "A", None, None]  # gone after tick 1
+    assert ex.frame_window({"run": {"clock": "lockstep"}, "radio": {"latency": 2}}) == 2
+    assert ex.frame_window({"run": {"clock": "realtime"}, "radio": {"latency": 2}}) is None
+
+
 def test_bad_format_and_missing_trace(tmp_path):
     with pytest.raises(ex.ExportError, match="choose one of"):
         ex.export(tmp_path, tmp_path, "xlsx")
@@ -85,6 +95,16 @@ def flooding_run(tmp_path_factory) -> Path:
                  "--set", "run.ticks=8"])
     assert code in (0, 1)
     return out
+
+
+@pytest.mark.slow
+def test_lockstep_export_forgets_frames_without_losing_a_name(flooding_run):
+    result = Result.load(flooding_run)
+    window = ex.frame_window(result["scenario"])
+    assert window == 1
+    full = list(ex.iter_frame_rows(result.records()))
+    assert list(ex.iter_frame_rows(result.records(), window)) == full
+    assert all(r["kind"] == "FLOOD" for r in full) and any(r["outcome"] == "loss" for r in full)
 
 
 @pytest.mark.slow
