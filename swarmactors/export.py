@@ -2,9 +2,10 @@
 
 Two tables, both built from the trace (``trace.msgpack``) beside ``result.json``:
 
-* **poses**: one row per (tick, alive robot): ``tick, id, x, y[, z]`` and one column per status field,
+* **poses**: one row per (tick, alive robot): ``tick, id, x, y[, z], heading`` and one column per status field,
   holding the robot's value of that field at that tick (the trace records changes; they are carried forward).
-  Headings are not in the trace, so not in the table.
+  The trace records positions, not headings: ``heading`` is derived (``headings``), exact where a robot's
+  last recorded move was a whole step, as docs/analysis.md says.
 * **frames**: one row per frame sent and per (frame, receiver) outcome, in each tick deliveries, then
   transmissions, then drops: ``tick, src, seq, kind, dst, size,
   outcome, sent_tick``. ``outcome`` is ``sent`` (the transmission, ``dst`` empty for a broadcast),
@@ -14,16 +15,25 @@ Two tables, both built from the trace (``trace.msgpack``) beside ``result.json``
 Formats: ``csv`` (``poses.csv``, ``frames.csv``), ``json`` (``poses.json``, ``frames.json``: lists of
 records), ``parquet`` (needs pyarrow: ``pip install 'swarmactors[export]'``). Status values that are lists or
 maps are written as JSON text in csv and parquet.
+
+The trace is streamed twice (once for the columns and their types, once for the rows) and the rows are
+written as they come, so an export's memory is O(N), not O(ticks) (parquet: one row group of
+``PARQUET_ROWS`` rows at a time). A DataFrame (``dataframe``) holds its whole table, by its nature.
 """
 
 from __future__ import annotations
 
 import csv
 import json
+import math
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 FORMATS = ("csv", "json", "parquet")
+TABLES = ("poses", "frames")
 FRAME_COLUMNS = ("tick", "src", "seq", "kind", "dst", "size", "outcome", "sent_tick")
+PARQUET_ROWS = 65_536  # rows per parquet row group: what an export holds at a time
 PARQUET_MISSING = ("parquet export needs pyarrow, which is not installed: pip install 'swarmactors[export]' "
                    "(or pip install pyarrow); csv and json need nothing more")
 PANDAS_MISSING = "this needs pandas, which is not installed: pip install pandas"
@@ -33,108 +43,220 @@ class ExportError(Exception):
     """Bad input for an export (no trace, unknown format, missing optional dependency)."""
 
 
-def _records(run) -> tuple[dict, list[dict]]:
+def _source(run) -> tuple[dict, Callable[[], Iterator[dict]]]:
+    """The run's resolved scenario and a function that streams its tick records afresh at each call."""
     from swarmactors.result import Result
-    from swarmactors.trace import read_trace
+    from swarmactors.trace import iter_trace
 
     if isinstance(run, Result):
         if run.trace_path is None:
             raise ExportError("this run has no trace (run.trace = false?): nothing to export")
-        return run["scenario"], run.trace
+        return run["scenario"], run.records
     path = Path(run)
     if path.is_dir():
         path = path / "trace.msgpack"
     elif path.name == "result.json":
-        return _records(Result.load(path))
+        return _source(Result.load(path))
     if not path.exists():
         raise ExportError(f"{path}: no such trace (give a run directory, its result.json or its trace)")
-    header, records, _ = read_trace(path)
+    header = next(iter_trace(path))
+
+    def records() -> Iterator[dict]:
+        for obj in iter_trace(path):
+            if "t" in obj and not obj.get("end"):
+                yield obj
+
     return header.get("scenario", {}), records
 
 
-def pose_rows(records: list[dict]) -> tuple[list[str], list[dict]]:
-    """Per-tick per-robot rows (status fields carried forward) and the column names, in order."""
-    status: dict[int, dict] = {}
-    fields: dict[str, None] = {}
-    rows = []
+def initial_headings(scenario: dict) -> dict[int, float]:
+    """Robot id -> heading at the start, from the resolved scenario's groups (robots in id order)."""
+    out: dict[int, float] = {}
+    for g in scenario.get("robots", []):
+        for _ in g.get("positions") or []:
+            out[len(out)] = float(g.get("heading") or 0.0)
+    return out
+
+
+class Headings:
+    """Each robot's heading as far as the trace determines it, fed one tick record at a time.
+
+    The world turns a holonomic robot to the direction of each step it takes, and a unicycle advances along its
+    new heading (world/kinematics.py); the record of tick t holds the positions before tick t's step. So the
+    heading at tick t is the direction (atan2 in the xy plane) of the last recorded move before it, and the
+    scenario's ``heading`` before any move (``start``; None for a robot added during the run, whose heading the
+    trace does not hold). It differs from the world's heading when that move was cut (the world's bounds, a
+    wall, ``world.blocking``), for a unicycle that turned without advancing (a turn of more than 90° to go), and
+    by up to ~1e-6 / step length rad from the positions' rounding.
+    """
+
+    def __init__(self, start: dict[int, float] | None = None):
+        self.heading: dict[int, float | None] = dict(start or {})
+        self.last: dict[int, tuple[float, float]] = {}
+
+    def feed(self, rec: dict) -> dict[int, float | None]:
+        """The headings of the robots alive at this record's tick."""
+        for row in rec.get("pos", ()):
+            rid, xy = row[0], (row[1], row[2])
+            before = self.last.get(rid)
+            if before is not None and xy != before:
+                self.heading[rid] = math.atan2(xy[1] - before[1], xy[0] - before[0])
+            self.last[rid] = xy
+        return {row[0]: self.heading.get(row[0]) for row in rec.get("pos", ())}
+
+
+def pose_columns(records: Iterable[dict]) -> tuple[list[str], dict[str, set]]:
+    """The poses table's columns, in order, and the Python types each one holds (one pass over the records)."""
+    kinds: dict[str, set] = {}
     dims = 2
     for rec in records:
-        for rid, changed in rec.get("status", {}).items():
-            status.setdefault(int(rid), {}).update(changed)
-            fields.update(dict.fromkeys(changed))
+        for changed in rec.get("status", {}).values():
+            for k, v in changed.items():
+                kinds.setdefault(k, set()).add(type(v))
         for row in rec.get("pos", ()):
             dims = max(dims, len(row) - 1)
+    fields = [f for f in sorted(kinds) if f not in ("tick", "id", "x", "y", "z", "heading")]
+    return ["tick", "id", "x", "y"] + (["z"] if dims > 2 else []) + ["heading"] + fields, kinds
+
+
+def iter_pose_rows(records: Iterable[dict], start: dict[int, float] | None = None) -> Iterator[dict]:
+    """Per-tick per-robot rows (heading derived, status fields carried forward), streamed."""
+    status: dict[int, dict] = {}
+    heads = Headings(start)
+    for rec in records:
+        heading = heads.feed(rec)
+        for rid, changed in rec.get("status", {}).items():
+            status.setdefault(int(rid), {}).update(changed)
+        for row in rec.get("pos", ()):
             out = {"tick": rec["t"], "id": row[0], "x": row[1], "y": row[2]}
             if len(row) > 3:
                 out["z"] = row[3]
+            out["heading"] = heading[row[0]]
             out.update(status.get(row[0], {}))
-            rows.append(out)
-    columns = ["tick", "id", "x", "y"] + (["z"] if dims > 2 else []) + sorted(fields)
-    return columns, rows
+            yield out
+
+
+def pose_rows(records: list[dict], start: dict[int, float] | None = None) -> tuple[list[str], list[dict]]:
+    """The poses table in memory: its columns and rows (small runs and tests; ``export`` streams)."""
+    return pose_columns(records)[0], list(iter_pose_rows(records, start))
+
+
+def iter_frame_rows(records: Iterable[dict], within: int | None = None) -> Iterator[dict]:
+    """Rows of every frame sent, delivered and dropped (see the module's docstring), streamed.
+
+    A delivery or drop names its frame by (src, seq) only, so the kind, size and send tick of each frame sent
+    are kept until no row can name it any more: ``within`` ticks after its send (lockstep: ``radio.latency``;
+    deliveries, and drops of receivers that died meanwhile, come exactly that many ticks after the send, other
+    drops at it), or to the end of the run when ``within`` is None (realtime).
+    """
+    meta: dict[tuple[int, int], tuple] = {}
+    sent_at: deque = deque()  # (send tick, [(src, seq), ...]) oldest first, when frames are forgotten
+    for rec in records:
+        t = rec["t"]
+        while within is not None and sent_at and sent_at[0][0] < t - within:
+            for key in sent_at.popleft()[1]:
+                meta.pop(key, None)
+        for src, seq, dst, sent_tick in rec.get("del", ()):
+            kind, size, _ = meta.get((src, seq), (None, None, None))
+            yield {"tick": t, "src": src, "seq": seq, "kind": kind, "dst": dst, "size": size,
+                   "outcome": "delivered", "sent_tick": sent_tick}
+        for src, seq, kind, dst, size in rec.get("sent", ()):
+            meta[src, seq] = (kind, size, t)
+            yield {"tick": t, "src": src, "seq": seq, "kind": kind, "dst": dst, "size": size,
+                   "outcome": "sent", "sent_tick": t}
+        if within is not None and rec.get("sent"):
+            sent_at.append((t, [(row[0], row[1]) for row in rec["sent"]]))
+        for src, seq, dst, cause in rec.get("drop", ()):
+            kind, size, sent_tick = meta.get((src, seq), (None, None, None))
+            yield {"tick": t, "src": src, "seq": seq, "kind": kind, "dst": dst, "size": size,
+                   "outcome": cause, "sent_tick": sent_tick}
+
+
+def frame_window(scenario: dict) -> int | None:
+    """How long after its send a frame can still be named by a trace row (``iter_frame_rows``'s ``within``)."""
+    run, radio = scenario.get("run") or {}, scenario.get("radio") or {}
+    latency = radio.get("latency")
+    if run.get("clock", "lockstep") == "lockstep" and isinstance(latency, int) and not isinstance(latency, bool):
+        return latency
+    return None
 
 
 def frame_rows(records: list[dict]) -> list[dict]:
-    """Rows of every frame sent, delivered and dropped (see the module's docstring)."""
-    meta: dict[tuple[int, int], tuple] = {}
-    rows = []
-    for rec in records:
-        t = rec["t"]
-        for src, seq, dst, sent_tick in rec.get("del", ()):
-            kind, size, _ = meta.get((src, seq), (None, None, None))
-            rows.append({"tick": t, "src": src, "seq": seq, "kind": kind, "dst": dst, "size": size,
-                         "outcome": "delivered", "sent_tick": sent_tick})
-        for src, seq, kind, dst, size in rec.get("sent", ()):
-            meta[src, seq] = (kind, size, t)
-            rows.append({"tick": t, "src": src, "seq": seq, "kind": kind, "dst": dst, "size": size,
-                         "outcome": "sent", "sent_tick": t})
-        for src, seq, dst, cause in rec.get("drop", ()):
-            kind, size, sent_tick = meta.get((src, seq), (None, None, None))
-            rows.append({"tick": t, "src": src, "seq": seq, "kind": kind, "dst": dst, "size": size,
-                         "outcome": cause, "sent_tick": sent_tick})
-    return rows
+    """The frames table's rows in memory (small runs and tests; ``export`` streams)."""
+    return list(iter_frame_rows(records))
+
+
+FRAME_KINDS = {"tick": {int}, "src": {int}, "seq": {int}, "kind": {str}, "dst": {int}, "size": {int},
+               "outcome": {str}, "sent_tick": {int}}
+
+
+def _table(name: str, scenario: dict, records: Callable[[], Iterator[dict]]):
+    """(columns, {column: Python types}, rows iterator) of one table; the poses' columns take a first pass."""
+    if name == "poses":
+        columns, kinds = pose_columns(records())
+        kinds = kinds | {"tick": {int}, "id": {int}, "x": {float}, "y": {float}, "z": {float}, "heading": {float}}
+        return columns, kinds, iter_pose_rows(records(), initial_headings(scenario))
+    return list(FRAME_COLUMNS), FRAME_KINDS, iter_frame_rows(records(), frame_window(scenario))
 
 
 def tables(run) -> dict[str, tuple[list[str], list[dict]]]:
-    """``{"poses": (columns, rows), "frames": (columns, rows)}`` for a run (directory, result.json, trace or Result)."""
-    _, records = _records(run)
-    return {"poses": pose_rows(records), "frames": (list(FRAME_COLUMNS), frame_rows(records))}
+    """``{"poses": (columns, rows), "frames": (columns, rows)}`` in memory (small runs; ``export`` streams)."""
+    scenario, records = _source(run)
+    out = {}
+    for name in TABLES:
+        columns, _, rows = _table(name, scenario, records)
+        out[name] = (columns, list(rows))
+    return out
 
 
 def export(run, out_dir: str | Path, fmt: str = "csv") -> list[Path]:
-    """Write the run's tables as ``out_dir/poses.<fmt>`` and ``out_dir/frames.<fmt>``; returns the paths."""
+    """Write the run's tables as ``out_dir/poses.<fmt>`` and ``out_dir/frames.<fmt>``, streamed; returns the paths."""
     if fmt not in FORMATS:
         raise ExportError(f"--format {fmt}: choose one of {', '.join(FORMATS)}")
     if fmt == "parquet":
         _pyarrow()
+    scenario, records = _source(run)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = []
-    for name, (columns, rows) in tables(run).items():
+    for name in TABLES:
+        columns, kinds, rows = _table(name, scenario, records)
         path = out_dir / f"{name}.{fmt}"
         if fmt == "csv":
+            nested = {c for c in columns if kinds.get(c, set()) & {list, dict, tuple}}  # written as JSON text
             with path.open("w", newline="") as f:
-                w = csv.DictWriter(f, fieldnames=columns, extrasaction="ignore")
-                w.writeheader()
-                w.writerows({k: _flat(v) for k, v in r.items()} for r in rows)
+                w = csv.writer(f)
+                w.writerow(columns)
+                w.writerows([_flat(r.get(c)) if c in nested else r.get(c) for c in columns] for r in rows)
         elif fmt == "json":
-            path.write_text(json.dumps([{c: r.get(c) for c in columns} for r in rows]))
+            with path.open("w") as f:
+                f.write("[")
+                for i, r in enumerate(rows):
+                    f.write((", " if i else "") + json.dumps({c: r.get(c) for c in columns}))
+                f.write("]")
         else:
-            _write_parquet(path, columns, rows)
+            _write_parquet(path, columns, kinds, rows)
         paths.append(path)
     return paths
 
 
-def poses_frame(run):
-    """The poses table as a pandas DataFrame (needs pandas)."""
+def dataframe(run, name: str):
+    """The ``poses`` or ``frames`` table as a pandas DataFrame (needs pandas): the export's rows and columns."""
     pd = _pandas()
-    columns, rows = tables(run)["poses"]
+    if name not in TABLES:
+        raise ExportError(f"no table {name!r}: choose one of {', '.join(TABLES)}")
+    columns, _, rows = _table(name, *_source(run))
     return pd.DataFrame.from_records(rows, columns=columns)
 
 
+def poses_frame(run):
+    """The poses table as a pandas DataFrame (``dataframe(run, "poses")``)."""
+    return dataframe(run, "poses")
+
+
 def frames_frame(run):
-    """The frames table as a pandas DataFrame (needs pandas)."""
-    pd = _pandas()
-    return pd.DataFrame.from_records(frame_rows(_records(run)[1]), columns=list(FRAME_COLUMNS))
+    """The frames table as a pandas DataFrame (``dataframe(run, "frames")``)."""
+    return dataframe(run, "frames")
 
 
 def _flat(v):
@@ -158,17 +280,42 @@ def _pandas():
     return pandas
 
 
-def _write_parquet(path: Path, columns: list[str], rows: list[dict]) -> None:
+def _arrow_type(pa, kinds: set):
+    """A column's Arrow type from the Python types it holds: bool, int64, float64 (ints and floats), else text."""
+    kinds = kinds - {type(None)}
+    if kinds == {bool}:
+        return pa.bool_()
+    if kinds and kinds <= {int}:
+        return pa.int64()
+    if kinds and kinds <= {int, float}:
+        return pa.float64()
+    return pa.string()  # strings; lists, maps and mixed types as JSON text
+
+
+def _cell(v, text: bool):
+    if v is None or not text or isinstance(v, str):
+        return v
+    return json.dumps(v)
+
+
+def _write_parquet(path: Path, columns: list[str], kinds: dict[str, set], rows: Iterable[dict]) -> None:
     pa = _pyarrow()
     import pyarrow.parquet as pq
 
-    data = {}
-    for c in columns:
-        col = [r.get(c) for r in rows]
-        if any(isinstance(v, (list, dict, tuple)) for v in col) or len({type(v) for v in col} - {type(None)}) > 1:
-            col = [None if v is None else (v if isinstance(v, str) else json.dumps(v)) for v in col]
-        data[c] = col
-    pq.write_table(pa.table(data), path)
+    schema = pa.schema([(c, _arrow_type(pa, kinds.get(c, set()))) for c in columns])
+    text = {c: schema.field(c).type == pa.string() for c in columns}
+    with pq.ParquetWriter(path, schema) as writer:
+        batch: list[dict] = []
+        for r in rows:
+            batch.append(r)
+            if len(batch) >= PARQUET_ROWS:
+                writer.write_table(_arrow_table(pa, schema, columns, text, batch))
+                batch = []
+        writer.write_table(_arrow_table(pa, schema, columns, text, batch))
+
+
+def _arrow_table(pa, schema, columns: list[str], text: dict[str, bool], rows: list[dict]):
+    return pa.table({c: [_cell(r.get(c), text[c]) for r in rows] for c in columns}, schema=schema)
 
 
 def add_parser(sub) -> None:

@@ -2,8 +2,10 @@
 
 ``Replay(trace)`` reads a trace file (and the ``result.json`` beside it, when
 there is one, for robot ranges and log lines) and gives the ``Scene`` at any
-tick. Scenes are rebuilt from checkpoints taken every ``CHECKPOINT_EVERY``
-ticks, so a seek costs at most that many records.
+tick. It holds no tick record: it keeps each record's byte offset and reads the
+records it needs from the file (a temporary decompressed copy of a zstd trace).
+Scenes are rebuilt from checkpoints taken every ``CHECKPOINT_EVERY`` ticks (at
+most ``CHECKPOINTS_MAX`` of them), so a seek reads at most that many records.
 
 ``render(trace, out)`` draws one frame per rendered tick (every ``every``-th
 tick, and the last) into a GIF (Pillow) or an MP4 (ffmpeg), each with the
@@ -14,18 +16,70 @@ from __future__ import annotations
 
 import bisect
 import json
-from collections.abc import Callable
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from swarmactors.scene import Scene
-from swarmactors.trace import TraceError, hash_problem, read_trace
+import numpy as np
+
+from swarmactors.scene import RECENT_TICKS, Scene
+from swarmactors.trace import TraceError, TraceHasher, footer_problem, iter_offsets, plain_copy
 
 CHECKPOINT_EVERY = 64
+CHECKPOINTS_MAX = 128  # a longer trace spaces its checkpoints further apart: the scenes kept stay O(N) in all
+
+
+class Records(Sequence):
+    """A trace's tick records, read from the file by their byte offsets when asked: none is held in memory.
+
+    ``records[i]`` reads one record; ``records.iter_from(i)`` reads on from record i in one sequential pass.
+    """
+
+    def __init__(self, path: Path, stream, offsets: np.ndarray):
+        self.path = path
+        self._stream = stream  # the trace's plain msgpack stream (a decompressed temporary copy of a zstd trace)
+        self._offsets = offsets
+
+    def __len__(self) -> int:
+        return len(self._offsets)
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self[k] for k in range(*i.indices(len(self)))]
+        if i < 0:
+            i += len(self)
+        if not 0 <= i < len(self):
+            raise IndexError(i)
+        return next(self.iter_from(i))
+
+    def __iter__(self) -> Iterator[dict]:
+        return self.iter_from(0)
+
+    def iter_from(self, i: int) -> Iterator[dict]:
+        """Records i, i + 1, ... to the last (the footer is not a record)."""
+        if i >= len(self):
+            return
+        left = len(self) - i
+        for _, obj in iter_offsets(self.path, self._stream, int(self._offsets[i])):
+            yield obj
+            left -= 1
+            if not left:
+                return
+
+    def close(self) -> None:
+        self._stream.close()
 
 
 class Replay:
-    """A trace file as a sequence of scenes."""
+    """A trace file as a sequence of scenes.
+
+    The trace is read once on opening (checked, its hashes verified) keeping only each record's tick and byte
+    offset; a scene is rebuilt from the nearest checkpoint (a scene every ``CHECKPOINT_EVERY`` records, or
+    fewer so that there are at most ``CHECKPOINTS_MAX``, kept as they are reached) by reading the records
+    after it. A checkpoint keeps the indices of the scene's recent records, not the records: memory
+    O(N · CHECKPOINTS_MAX), no tick record kept.
+    """
 
     def __init__(self, trace: str | Path, verify: bool = True):
         """Read ``trace``.
@@ -34,34 +88,55 @@ class Replay:
         with a warning in ``note``.
         """
         self.path = Path(trace)
-        header, records, footer = read_trace(self.path)  # TraceError names the file and the offset
+        stream = plain_copy(self.path)  # TraceError names the file
+        header = footer = None
+        offsets: list[int] = []
+        ticks: list[int] = []
+        hasher = TraceHasher()
+        try:
+            for offset, obj in iter_offsets(self.path, stream):  # TraceError names the file and the offset
+                if header is None:
+                    header = obj
+                elif obj.get("end"):
+                    footer = obj
+                else:
+                    offsets.append(offset)
+                    ticks.append(obj["t"])
+                    hasher.update(obj)
+        except BaseException:
+            stream.close()
+            raise
         if header is None:
+            stream.close()
             raise TraceError(f"{self.path}: no header")
-        if not records:
+        if not offsets:
+            stream.close()
             raise TraceError(f"{self.path}: the trace holds no tick record")
         self.header = header
-        self.records = records
+        self.records = Records(self.path, stream, np.asarray(offsets, dtype=np.int64))
         self.footer = footer
-        self.first = records[0]["t"]
-        self.last = records[-1]["t"]
-        self._ticks = [r["t"] for r in records]
+        self._ticks = np.asarray(ticks, dtype=np.int64)
+        self.first = int(self._ticks[0])
+        self.last = int(self._ticks[-1])
         self.note = None if footer is not None else "this trace has no footer: the run was cut short"
-        problem = hash_problem(header, records, footer)
+        problem = footer_problem(header, hasher.hexdigest(), footer)
         if problem and verify:
+            self.records.close()
             raise TraceError(f"{self.path}: {problem}; replay --no-verify shows it anyway")
         if problem:
             self.note = f"warning: {problem}"
         self.result = self._result_beside()
         sc = header.get("scenario") or {}
         self._base = Scene(run_id=header.get("run_id", ""), clock=header.get("clock", "lockstep"),
-                           ticks=len(records), scenario=sc, mode="replay")
+                           ticks=len(offsets), scenario=sc, mode="replay")
         if self.result is not None:
             for rid, r in self.result.get("robots", {}).items():
                 if isinstance(r.get("range"), (int, float)):
                     self._base.ranges[int(rid)] = float(r["range"])
                 if r.get("log"):
                     self._base.logs[int(rid)] = list(r["log"])
-        self._checkpoints: list[tuple[int, Scene]] = []  # (index of the next record to feed, scene)
+        # (index of the next record to feed, the scene then without its recent records, their indices)
+        self._checkpoints: list[tuple[int, Scene, tuple[int, ...]]] = []
         self._full: Scene | None = None
 
     def _result_beside(self) -> dict | None:
@@ -80,20 +155,39 @@ class Replay:
 
     def scene_at(self, t: int) -> Scene:
         """The scene after tick ``t``'s record (clamped to the trace)."""
-        idx = bisect.bisect_right(self._ticks, t)  # records to feed: [0, idx)
+        idx = int(np.searchsorted(self._ticks, t, side="right"))  # records to feed: [0, idx)
         idx = max(1, min(idx, len(self.records)))
-        start, scene = 0, self._base
-        if self._checkpoints:
-            k = bisect.bisect_right([c[0] for c in self._checkpoints], idx) - 1
-            if k >= 0:
-                start, scene = self._checkpoints[k]
-        scene = scene.copy()
-        for i in range(start, idx):
-            scene.feed_record(self.records[i])
-            if (i + 1) % CHECKPOINT_EVERY == 0 and (not self._checkpoints or self._checkpoints[-1][0] < i + 1):
-                self._checkpoints.append((i + 1, scene.copy()))
+        start, scene, recent = 0, self._base.copy(), deque(maxlen=RECENT_TICKS)
+        k = bisect.bisect_right([c[0] for c in self._checkpoints], idx) - 1
+        if k >= 0:
+            start, saved, recent_idx = self._checkpoints[k]
+            scene, recent = saved.copy(), deque(recent_idx, maxlen=RECENT_TICKS)
+            scene.recent = deque(self._read(recent_idx), maxlen=RECENT_TICKS)
+        every = max(CHECKPOINT_EVERY, -(-len(self.records) // CHECKPOINTS_MAX))
+        for i, rec in enumerate(self.records.iter_from(start), start):
+            if i >= idx:
+                break
+            scene.feed_record(rec)
+            if scene.recent and scene.recent[-1] is rec:
+                recent.append(i)
+            if (i + 1) % every == 0 and (not self._checkpoints or self._checkpoints[-1][0] < i + 1):
+                saved = scene.copy()
+                saved.recent = deque(maxlen=RECENT_TICKS)  # kept as record indices, read again on a seek
+                self._checkpoints.append((i + 1, saved, tuple(recent)))
         scene.finished = idx == len(self.records) and self.footer is not None
         return scene
+
+    def _read(self, indices: tuple[int, ...]) -> list[dict]:
+        """The records at ``indices`` (ascending), in one pass over the file from the first."""
+        want, out = set(indices), []
+        if not indices:
+            return out
+        for i, rec in enumerate(self.records.iter_from(indices[0]), indices[0]):
+            if i in want:
+                out.append(rec)
+            if i >= indices[-1]:
+                break
+        return out
 
     def full_scene(self) -> Scene:
         if self._full is None:
@@ -101,7 +195,7 @@ class Replay:
         return self._full
 
     def ticks(self) -> list[int]:
-        return list(self._ticks)
+        return self._ticks.tolist()
 
 
 # ---------------------------------------------------------------- animations
@@ -150,62 +244,84 @@ def render(trace: str | Path, out: str | Path, every: int = 1, fps: float = 10.0
     ticks = replay.ticks()[::every]
     if ticks[-1] != replay.last:
         ticks.append(replay.last)
-    scenes = _scenes_along(replay, ticks)
-    style = frame_style(replay, scenes, field or replay._base.field, labels)
+    # two streamed passes: the style (legend, scale, limits) from every frame, then each frame drawn as it comes
+    style = frame_style(replay, scenes_along(replay, ticks, copy=False), field or replay._base.field, labels)
     fig, ax = frame_figure(style)
     writer = animation.PillowWriter(fps=fps) if suffix == ".gif" else animation.FFMpegWriter(fps=fps)
     name = replay.header.get("scenario", {}).get("run", {}).get("name", replay.header.get("run_id", ""))
     with writer.saving(fig, str(out), dpi=80):
-        for i, scene in enumerate(scenes):
+        for i, scene in enumerate(scenes_along(replay, ticks, copy=False)):
             ax.clear()
             draw_scene(ax, scene, style)
             ax.set_title(f"{name}: tick {scene.t}")  # every frame differs, so none is merged away
             writer.grab_frame()
             if progress:
-                progress(i + 1, len(scenes))
+                progress(i + 1, len(ticks))
     plt.close(fig)
-    return len(scenes)
+    replay.records.close()
+    return len(ticks)
+
+
+def scenes_along(replay: Replay, ticks: list[int], copy: bool = True) -> Iterator[Scene]:
+    """The scene at each of ``ticks`` (ascending), fed in one streamed pass (``copy=False``: one scene, updated)."""
+    scene = replay._base.copy()
+    records = replay.records.iter_from(0)
+    pending = next(records, None)
+    for t in ticks:
+        while pending is not None and pending["t"] <= t:
+            scene.feed_record(pending)
+            pending = next(records, None)
+        yield scene.copy() if copy else scene
 
 
 def _scenes_along(replay: Replay, ticks: list[int]) -> list[Scene]:
-    """The scene at each of ``ticks`` (ascending), fed in one pass."""
-    out = []
-    scene = replay._base.copy()
-    i = 0
-    for t in ticks:
-        while i < len(replay.records) and replay.records[i]["t"] <= t:
-            scene.feed_record(replay.records[i])
-            i += 1
-        out.append(scene.copy())
-    return out
+    """``scenes_along`` as a list of independent scenes (tests, small traces)."""
+    return list(scenes_along(replay, ticks))
 
 
-def frame_style(replay: Replay, scenes: list[Scene], field: str | None, labels: bool | None = None) -> FrameStyle:
-    """Decide the animation's colours, legend, limits and ids from every scene it shows."""
-    import numpy as np
-
+def frame_style(replay: Replay, scenes: Iterable[Scene], field: str | None, labels: bool | None = None) -> FrameStyle:
+    """Decide the animation's colours, legend, limits and ids from every scene it shows (read once, in order)."""
     from swarmactors.plots import LABEL_MAX, categories, is_categorical, marker_size
     from swarmactors.trajectories import _extent
 
-    values = [v for s in scenes for st in s.status.values() if (v := st.get(field)) is not None] if field else []
+    kinds: dict[type, object] = {}  # one value of each type the field takes (all is_categorical looks at)
+    distinct: set[str] = set()  # the field's distinct values as text (its categories, when it has them)
+    lo_v = hi_v = None
+    lo = np.full(2, np.inf)
+    hi = np.full(2, -np.inf)
+    n, missing, failed, objects = 0, False, False, False
+    for s in scenes:
+        if field:
+            for st in s.status.values():
+                v = st.get(field)
+                if v is None:
+                    continue
+                kinds.setdefault(type(v), v)
+                if isinstance(v, (int, float)) and not isinstance(v, bool):
+                    lo_v = v if lo_v is None else min(lo_v, v)
+                    hi_v = v if hi_v is None else max(hi_v, v)
+                distinct.add(str(v))  # categories() names values by their text
+            missing = missing or any(s.status.get(row[0], {}).get(field) is None for row in s.pos)
+        points = [row[1:3] for row in s.pos] + [d["pos"][:2] for d in s.dead.values() if d["pos"] is not None]
+        points += [p[:2] for p in s.objects.values()]
+        if points:
+            xy = np.asarray(points, dtype=float).reshape(-1, 2)
+            lo, hi = np.minimum(lo, xy.min(axis=0)), np.maximum(hi, xy.max(axis=0))
+        n = max(n, len(s.pos) + len(s.dead))
+        failed = failed or bool(s.dead)
+        objects = objects or bool(s.objects)
     cats = span = None
-    if values and is_categorical(values):
-        cats = categories(values)
-    elif values:
-        span = (float(min(values)), float(max(values)))
-    points = [row[1:3] for s in scenes for row in s.pos]
-    points += [d["pos"][:2] for s in scenes for d in s.dead.values() if d["pos"] is not None]
-    points += [p[:2] for s in scenes for p in s.objects.values()]
-    xy = np.asarray(points, dtype=float).reshape(-1, 2)
+    if kinds and is_categorical(list(kinds.values())):
+        cats = categories(list(distinct))
+    elif kinds:
+        span = (float(lo_v), float(hi_v))
+    xy = np.stack([lo, hi]) if np.isfinite(lo).all() else np.zeros((0, 2))
     lo, hi = _extent(xy, replay._base.bounds)  # the world's bounds unless far larger than where robots went
     pad = max(float((hi - lo).max()) * 0.06, 0.2)  # a disc (and its id) at the very edge stays whole
-    n = max((len(s.pos) + len(s.dead) for s in scenes), default=0)
     labels = labels if labels is not None else n <= LABEL_MAX
     size = 150.0 if labels else min(marker_size(n), 70.0)  # a disc that holds its id when ids are written
-    missing = bool(field) and any(s.status.get(row[0], {}).get(field) is None for s in scenes for row in s.pos)
     return FrameStyle(field, cats, span, (lo[0] - pad, lo[1] - pad), (hi[0] + pad, hi[1] + pad),
-                      labels, size,
-                      replay._base.bounds, missing, any(s.dead for s in scenes), any(s.objects for s in scenes),
+                      labels, size, replay._base.bounds, missing, failed, objects,
                       (replay.header.get("scenario") or {}).get("world"))
 
 

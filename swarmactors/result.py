@@ -132,9 +132,11 @@ class Result:
                     return defaults | {k: v for k, v in spec.items() if k not in ("use", "as")}
         raise KeyError(f"no behaviour reports as {name!r} in this scenario")
 
-    def frames(self, rid: int) -> dict:
-        """Robot ``rid``'s frame counters: sent, received, dropped by cause (as sender)."""
+    def frame_counts(self, rid: int) -> dict:
+        """Robot ``rid``'s frame counters: sent, received, dropped by cause (as sender), from result.json."""
         return self.data["world"]["per_robot"][str(rid)]
+
+    frames = frame_counts  # the older name, kept: tests and docs read ``result.frames(rid)``
 
     def reports(self, behavior: str) -> dict[int, dict]:
         """Robot id -> that behaviour's report (robots without it are left out)."""
@@ -163,7 +165,11 @@ class Result:
 
     @cached_property
     def trace(self) -> list[dict]:
-        """The tick records of the trace (read once)."""
+        """Every tick record of the trace as Python objects, read once and kept: O(ticks) memory.
+
+        For interactive use on small runs; nothing that runs after a run (checks, charts, plots, replay,
+        export) reads it: they stream with ``records()``.
+        """
         from swarmactors.trace import read_trace
 
         if self.trace_path is None:
@@ -183,11 +189,60 @@ class Result:
         if self.trace_path is None:
             raise FileNotFoundError("this run wrote no trace (run.trace = false?)")
         header = True
+        ticks = []
         for obj in iter_trace(self.trace_path):
             if header:
                 header = False
             elif not obj.get("end"):
+                ticks.append(obj["t"])
                 yield obj
+        self.__dict__.setdefault("_ticks", np.asarray(ticks, dtype=np.int64))  # a whole pass: its ticks, kept
+
+    def ticks(self) -> np.ndarray:
+        """The ticks of the trace's records, in order, as an array (one streamed pass, then kept: 8 bytes a tick)."""
+        if "_ticks" not in self.__dict__:
+            self.__dict__["_ticks"] = np.fromiter((rec["t"] for rec in self.records()), dtype=np.int64)
+        return self.__dict__["_ticks"]
+
+    def last_tick(self) -> int:
+        """The trace's last tick."""
+        ticks = self.ticks()
+        if not len(ticks):
+            raise KeyError("the trace has no tick")
+        return int(ticks[-1])
+
+    def first_tick(self, at: int | None = None) -> int:
+        """The first tick of the trace (at or after ``at`` when given)."""
+        ticks = self.ticks()
+        later = ticks if at is None else ticks[ticks >= at]
+        if not len(later):
+            raise KeyError(f"the trace has no tick at or after {at}")
+        return int(later[0])
+
+    def states(self) -> Iterator[tuple[dict, Severance]]:
+        """Each tick record with the cuts and partition groups in force at it, in one streamed pass.
+
+        ``graph_at(rec["t"], rec=rec, severed=severed)`` then builds the tick's graph without reading again.
+        """
+        from transport.severance import Severance
+
+        links = Severance()
+        for rec in self.records():
+            if rec.get("ev"):  # a new object when events change it: what was yielded before stays as it was
+                links = links.copy()
+                for ev in rec["ev"]:
+                    links.apply(ev)
+            yield rec, links
+
+    def first_record(self) -> dict:
+        """The trace's first tick record (reads no further)."""
+        records = self.records()
+        try:
+            return next(records)
+        except StopIteration:
+            raise KeyError("the trace has no tick") from None
+        finally:
+            records.close()
 
     def last_record(self) -> dict:
         """The trace's last tick record (streamed: only one record held at a time)."""
@@ -282,14 +337,18 @@ class Result:
         """The true radio graph at the last tick of the trace (``graph_at`` of that tick)."""
         return self.graph_at(self.last_record()["t"], directed)
 
-    def poses(self):
-        """Per-tick per-robot positions and status fields as a pandas DataFrame (needs pandas; swarmactors.export)."""
-        from swarmactors.export import poses_frame
+    def poses_table(self):
+        """The export's ``poses`` table as a pandas DataFrame (needs pandas): a row per tick and alive robot."""
+        from swarmactors.export import dataframe
 
-        return poses_frame(self)
+        return dataframe(self, "poses")
 
-    def frame_log(self):
-        """Every frame sent, delivered and dropped as a pandas DataFrame (``frames(rid)``: one robot's counters)."""
-        from swarmactors.export import frames_frame
+    def frames_table(self):
+        """The export's ``frames`` table as a pandas DataFrame (needs pandas): every frame sent, delivered, dropped."""
+        from swarmactors.export import dataframe
 
-        return frames_frame(self)
+        return dataframe(self, "frames")
+
+    poses = poses_table  # the names of the first release, kept
+    frame_log = frames_table
+

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import hashlib
 import time
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from operator import itemgetter
 from pathlib import Path
 from typing import Any
@@ -246,7 +246,10 @@ class TraceWriter:
 
 
 def read_trace(path: str | Path) -> tuple[dict, list[dict], dict | None]:
-    """Read a whole trace: ``(header, tick records, footer or None if truncated cleanly)``."""
+    """Read a whole trace: ``(header, tick records, footer or None if truncated cleanly)``.
+
+    Every record is held in memory (O(ticks)); what runs after a run streams with ``iter_trace`` instead.
+    """
     header = None
     records: list[dict] = []
     footer = None
@@ -261,32 +264,54 @@ def read_trace(path: str | Path) -> tuple[dict, list[dict], dict | None]:
 
 
 def iter_trace(path: str | Path) -> Iterator[dict]:
-    """Yield the header, tick records and footer of a trace, checking each."""
-    path = Path(path)
+    """Yield the header, tick records and footer of a trace, checking each (one record in memory at a time)."""
+    for _, obj in iter_offsets(path):
+        yield obj
+
+
+def _open(path: Path):
+    """The trace file opened for reading, and its size (None: a compressed stream, of unknown length)."""
     try:
         f = open(path, "rb")
     except OSError as exc:
         raise TraceError(f"{path}: cannot open: {exc.strerror}") from None
-    with f:
-        size = path.stat().st_size
-        if size == 0:
-            raise TraceError(f"{path}: empty file at byte offset 0 (the run wrote no trace data)")
-        if f.read(4) == ZSTD_MAGIC:  # a compressed trace: offsets below are in the decompressed stream
-            import zstandard
+    size = path.stat().st_size
+    if size == 0:
+        f.close()
+        raise TraceError(f"{path}: empty file at byte offset 0 (the run wrote no trace data)")
+    if f.read(4) == ZSTD_MAGIC:  # a compressed trace: offsets are in the decompressed stream
+        import zstandard
 
-            f.seek(0)
-            f = zstandard.ZstdDecompressor().stream_reader(f, read_across_frames=True)
-            size = None
-        else:
-            f.seek(0)
-        unpacker = msgpack.Unpacker(f, raw=False, strict_map_key=False, max_buffer_size=1 << 30)
-        first = True
-        offset = 0
+        f.seek(0)
+        return zstandard.ZstdDecompressor().stream_reader(f, read_across_frames=True, closefd=True), None
+    f.seek(0)
+    return f, size
+
+
+def iter_offsets(path: str | Path, stream=None, start: int = 0) -> Iterator[tuple[int, dict]]:
+    """Yield ``(byte offset, object)`` for the header, tick records and footer of a trace, checking each.
+
+    Offsets are in the msgpack stream (the decompressed one for a zstd trace). ``stream``: read this
+    seekable plain msgpack stream (``plain_copy``) from byte ``start`` instead of opening ``path``; the header
+    is then only checked when ``start`` is 0.
+    """
+    path = Path(path)
+    if stream is None:
+        f, size = _open(path)
+    else:
+        stream.seek(0, 2)
+        f, size = None, stream.tell()
+        stream.seek(start)
+    try:
+        unpacker = msgpack.Unpacker(f if f is not None else stream, raw=False, strict_map_key=False,
+                                    max_buffer_size=1 << 30)
+        first = start == 0
+        offset = start
         while True:
             try:
                 obj = unpacker.unpack()
             except msgpack.OutOfData:
-                if (size is not None and offset < size) or (size is None and unpacker.tell() > offset):
+                if (size is not None and offset < size) or (size is None and start + unpacker.tell() > offset):
                     raise TraceError(f"{path}: truncated record at byte offset {offset}") from None
                 return
             except Exception as exc:
@@ -305,30 +330,71 @@ def iter_trace(path: str | Path) -> Iterator[dict]:
                 problem = record_problem(obj)
                 if problem:
                     raise TraceError(f"{path}: byte offset {offset}: tick {obj['t']}: {problem}")
-            offset = unpacker.tell()
-            yield obj
+            here = offset
+            offset = start + unpacker.tell()
+            yield here, obj
+    finally:
+        if f is not None:
+            f.close()
 
 
-def hash_problem(header: dict, records: list[dict], footer: dict | None) -> str | None:
-    """Whether a trace's records and header match the hashes in its footer (None: they do, or no footer)."""
+def plain_copy(path: str | Path):
+    """A seekable binary file of the trace's msgpack stream: the file itself, or a decompressed temporary copy.
+
+    What needs to go back to a tick (the replay's slider) seeks in it by the offsets of ``iter_offsets``
+    instead of keeping the records in memory. The caller closes it (a temporary copy is then deleted).
+    """
+    import shutil
+    import tempfile
+
+    f, size = _open(Path(path))
+    if size is not None:
+        return f
+    with f:
+        copy = tempfile.TemporaryFile()
+        shutil.copyfileobj(f, copy, 1 << 20)
+    copy.seek(0)
+    return copy
+
+
+def hash_problem(header: dict, records: Iterable[dict], footer: dict | None) -> str | None:
+    """Whether a trace's records and header match the hashes in its footer (None: they do, or no footer).
+
+    ``records`` is read once, in order (a generator streams them).
+    """
     if footer is None:
         return None
     h = TraceHasher()
     for rec in records:
         h.update(rec)
-    if footer.get("trace_hash") != h.hexdigest():
-        return f"hash mismatch: footer {footer.get('trace_hash')}, records {h.hexdigest()} (edited or corrupt)"
+    return footer_problem(header, h.hexdigest(), footer)
+
+
+def footer_problem(header: dict, records_hash: str, footer: dict | None) -> str | None:
+    """``hash_problem`` for a digest of the records computed by the caller (``TraceHasher``) while streaming."""
+    if footer is None:
+        return None
+    if footer.get("trace_hash") != records_hash:
+        return f"hash mismatch: footer {footer.get('trace_hash')}, records {records_hash} (edited or corrupt)"
     if footer.get("header_hash") is not None and footer["header_hash"] != digest(header):
         return "the header does not match its hash in the footer (edited or corrupt)"
     return None
 
 
 def verify(path: str | Path) -> str:
-    """Recompute the hashes of a trace file and compare them with its footer's; the trace hash."""
-    header, records, footer = read_trace(path)
+    """Recompute the hashes of a trace file and compare them with its footer's; the trace hash (streamed)."""
+    header, footer = None, None
+    h = TraceHasher()
+    for obj in iter_trace(path):
+        if header is None:
+            header = obj
+        elif obj.get("end"):
+            footer = obj
+        else:
+            h.update(obj)
     if footer is None:
         raise TraceError(f"{path}: no footer (the run did not finish writing the trace)")
-    problem = hash_problem(header, records, footer)
+    problem = footer_problem(header, h.hexdigest(), footer)
     if problem:
         raise TraceError(f"{path}: {problem}")
     return footer["trace_hash"]

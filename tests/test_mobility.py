@@ -18,9 +18,11 @@ from protocols.mobility.behavior import RandomWalk, RandomWaypoint, fold
 
 
 class Ctx:
-    """What a mobility behaviour uses of a robot's context: pose, tick, dt, rng and move."""
+    """What a mobility behaviour uses of a robot's context: pose, tick, dt, rng, move, map and kind."""
 
-    def __init__(self, pos, seed: int, dt: float = 1.0):
+    def __init__(self, pos, seed: int, dt: float = 1.0, known=None):
+        self.map = known  # a KnownMap when the robot knows the obstacles
+        self.kind = "ground"
         self.pose = np.array([*pos, 0.0])
         self.tick = 0
         self.dt = dt
@@ -31,9 +33,9 @@ class Ctx:
         self.v = v
 
 
-def simulate(make, n: int, ticks: int, start=(0.0, 0.0), dt: float = 1.0) -> np.ndarray:
+def simulate(make, n: int, ticks: int, start=(0.0, 0.0), dt: float = 1.0, known=None) -> np.ndarray:
     """Final (x, y) of ``n`` robots after ``ticks`` ticks, each moved as the world moves it."""
-    robots = [(make(), Ctx(start, seed)) for seed in range(n)]
+    robots = [(make(), Ctx(start, seed, known=known)) for seed in range(n)]
     for t in range(ticks):
         for b, ctx in robots:
             ctx.tick = t
@@ -68,6 +70,41 @@ def test_random_walk_with_persistent_headings_stays_uniform():
     xy = simulate(lambda: RandomWalk([[0, 0], [1, 1]], speed=0.1, turn_every=5), n=400, ticks=200)
     assert stats.kstest(xy[:, 0], "uniform").pvalue > 0.001
     assert stats.kstest(xy[:, 1], "uniform").pvalue > 0.001
+
+
+@pytest.mark.slow  # a few seconds: every step asks the map
+def test_random_walk_reflects_off_obstacles_and_stays_uniform_in_the_free_space():
+    """With the map known, no step enters the obstacle, and the law is uniform over the free space."""
+    from swarmactors.knownmap import KnownMap
+
+    block = [[1.0, 0.0], [1.5, 0.0], [1.5, 0.6], [1.0, 0.6]]  # an upright rectangle on the floor of [0,2]x[0,1]
+    known = KnownMap.from_spec({"dims": 2, "obstacles": [{"xy": block, "z": None}], "map": None})
+    walk = [None]
+
+    def make():
+        walk[0] = RandomWalk([[0, 0], [2, 1]], speed=0.12, turn_every=3)
+        return walk[0]
+
+    xy = simulate(make, n=250, ticks=200, start=(0.2, 0.2), known=known)
+    inside = (xy[:, 0] > 1.0) & (xy[:, 0] < 1.5) & (xy[:, 1] < 0.6)
+    assert not inside.any() and walk[0].reflections > 0
+    # uniform on the free space (area 2 - 0.3): P(x <= a) is the free area left of a over 1.7
+    def free_cdf(a):
+        a = np.clip(a, 0.0, 2.0)
+        return (a - 0.6 * np.clip(a - 1.0, 0.0, 0.5)) / 1.7
+
+    assert stats.kstest(xy[:, 0], free_cdf).pvalue > 0.001
+    top = xy[:, 1] > 0.6  # above the block every x is free: y uniform there, and the right share of robots
+    assert stats.kstest((xy[top, 1] - 0.6) / 0.4, "uniform").pvalue > 0.001
+    assert stats.binomtest(int(top.sum()), len(xy), 0.8 / 1.7).pvalue > 0.001
+    column = (xy[:, 0] > 1.0) & (xy[:, 0] < 1.5)  # above the block only: 0.5 x 0.4 of the free 1.7
+    assert stats.binomtest(int(column.sum()), len(xy), 0.2 / 1.7).pvalue > 0.001
+    # the same tests see robots that ignore the block (uniform on the whole box, a quarter in that column)
+    blind = simulate(lambda: RandomWalk([[0, 0], [2, 1]], speed=0.12, turn_every=3), n=250, ticks=200,
+                     start=(0.2, 0.2))
+    assert ((blind[:, 0] > 1.0) & (blind[:, 0] < 1.5) & (blind[:, 1] < 0.6)).any()
+    column = (blind[:, 0] > 1.0) & (blind[:, 0] < 1.5)
+    assert stats.binomtest(int(column.sum()), len(blind), 0.2 / 1.7).pvalue < 0.001
 
 
 def test_random_waypoint_on_a_segment_has_the_known_density():

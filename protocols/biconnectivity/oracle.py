@@ -79,7 +79,7 @@ def complete_periods(rep: dict, result: Result) -> set[int]:
     That is, periods cut short neither by a newer period nor by the end of the run.
     """
     unit = _tick_len(result)
-    last = result.trace[-1]["t"]
+    last = result.last_tick()
     wait = rep["bounds"]["fill"] / unit
     joined = sorted((int(p), st["joined_tick"]) for p, st in rep.get("periods", {}).items()
                     if st["joined_tick"] is not None)
@@ -92,9 +92,9 @@ def complete_periods(rep: dict, result: Result) -> set[int]:
 
 
 def _period_graph(result: Result, p: int) -> nx.Graph:
-    ticks = [rec["t"] for rec in result.trace]
-    t = min((x for x in ticks if x >= p), default=ticks[-1])
-    return result.graph_at(t)
+    ticks = result.ticks()
+    later = ticks[ticks >= p]
+    return result.graph_at(int(later[0] if len(later) else ticks[-1]))
 
 
 def lists(result: Result) -> Outcome:
@@ -124,7 +124,7 @@ def verdict(result: Result) -> list[Outcome]:
     wrong, late, undecided = [], [], []
     n = 0
     graphs: dict[int, nx.Graph] = {}
-    end = result.trace[-1]["t"] * _tick_len(result)
+    end = result.last_tick() * _tick_len(result)
     for rid, rep in result.reports("biconnectivity").items():
         bound = rep["bounds"]["check"]
         for ck in rep.get("checks", []):
@@ -187,31 +187,26 @@ def paths(result: Result, limit: int = 2_000_000) -> Outcome:
 def removal(result: Result) -> list[Outcome]:
     """After a removal: the final swarm is biconnected, and no link present at the first MOVE breaks later."""
     leads = [r for rep in result.reports("biconnectivity").values() for r in rep.get("removals", [])]
-    last = result.trace[-1]["t"]
-    g_end = result.graph_at(last)
+    rec, severed = result.last_state()
+    g_end = result.graph_at(rec["t"], rec=rec, severed=severed)
     ok_end = paper_biconnected(g_end)
     broken: list = []
     first = None
-    for rec in result.trace:
-        for row in rec.get("sent", []):
-            if row[2] == MOVE:
+    edges0: set = set()
+    for rec, severed in result.states():  # one streamed pass: the first MOVE, then every later tick's graph
+        if first is None:
+            if any(row[2] == MOVE for row in rec.get("sent", [])):
                 first = rec["t"]
-                break
-        if first is not None:
+                alive_end = set(g_end)
+                g0 = result.graph_at(first, rec=rec, severed=severed)
+                edges0 = {tuple(sorted(e)) for e in g0.edges if e[0] in alive_end and e[1] in alive_end}
+            continue
+        g = result.graph_at(rec["t"], rec=rec, severed=severed)
+        for a, b in edges0:
+            if a in g and b in g and not g.has_edge(a, b):
+                broken.append((rec["t"], a, b))
+        if broken:
             break
-    if first is not None:
-        g0 = result.graph_at(first)
-        alive_end = set(g_end)
-        edges0 = {tuple(sorted(e)) for e in g0.edges if e[0] in alive_end and e[1] in alive_end}
-        for rec in result.trace:
-            if rec["t"] <= first:
-                continue
-            g = result.graph_at(rec["t"])
-            for a, b in edges0:
-                if a in g and b in g and not g.has_edge(a, b):
-                    broken.append((rec["t"], a, b))
-            if broken:
-                break
     return [
         Outcome("biconnectivity.removal_biconnected", ok_end and bool(leads), value=ok_end, bound=True,
                 detail=f"leaders' removals: {[(r['removed'], r['d'], r['rounds'], r['verdict']) for r in leads]}"),
@@ -242,9 +237,8 @@ def join(result: Result, ratio: float = 0.95, spacing: float | None = None) -> l
     """A joiner ends with >= 2 neighbours, the swarm stays biconnected, value >= ratio x the grid optimum."""
     params = _behaviour_params(result)
     region = float(params.get("region", 0.0))
-    last = result.trace[-1]["t"]
-    g = result.graph_at(last)
-    rec = result.record(last)
+    rec, severed = result.last_state()
+    g = result.graph_at(rec["t"], rec=rec, severed=severed)
     pos = {row[0]: np.array(row[1:3]) for row in rec["pos"]}
     outs = []
     for rid, rep in result.reports("biconnectivity").items():

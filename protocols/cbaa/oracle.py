@@ -18,7 +18,7 @@ def _params(result: Result) -> dict:
 
 
 def _start_tick(result: Result, at: int) -> int:
-    return min(rec["t"] for rec in result.trace if rec["t"] >= at)
+    return result.first_tick(at)
 
 
 def oracle_scores(result: Result) -> dict[int, list[float]]:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections import Counter, defaultdict
+from collections import Counter, defaultdict, deque
 
 import networkx as nx
 
@@ -20,21 +20,27 @@ def _receivers(result: Result, behavior: str = "flooding") -> dict[int, dict]:
 
 
 def oracle_arrivals(result: Result) -> tuple[dict[int, int], dict[int, int]]:
-    """Earliest arrival tick and hop per robot, lossless, lockstep (time-expanded BFS over true positions)."""
+    """Earliest arrival tick and hop per robot, lossless, lockstep (time-expanded BFS over true positions).
+
+    Streamed: the ticks from t to t + c (radio.latency) are held, no more.
+    """
     p = _params(result)
     c = result["scenario"]["radio"]["latency"]
     deadline = None if p["expiry"] is None else p["at"] + p["expiry"]
     hop_limit = p["hops"]
-    records = {rec["t"]: rec for rec in result.trace}
-    origin_tick = min(t for t in records if t >= p["at"])
-    arrival = {p["origin"]: origin_tick}
-    hop = {p["origin"]: 0}
-    for t in sorted(records):
+    arrival: dict[int, int] = {}
+    hop: dict[int, int] = {}
+    window: deque = deque()  # (record, severed) of the ticks not yet judged, oldest first
+
+    def judge(rec: dict, severed) -> None:
+        t = rec["t"]
+        if not arrival and t >= p["at"]:
+            arrival[p["origin"]], hop[p["origin"]] = t, 0
         senders = [u for u, a in arrival.items() if a == t and (hop_limit is None or hop[u] < hop_limit)]
         if not senders:
-            continue
-        g = result.graph_at(t, directed=True)
-        later = records.get(t + c)
+            return
+        g = result.graph_at(t, directed=True, rec=rec, severed=severed)
+        later = rec if c == 0 else next((r for r, _ in window if r["t"] == t + c), None)
         alive_then = {row[0] for row in later["pos"]} if later else set()
         for u in sorted(senders, key=lambda u: hop[u]):
             if u not in g:
@@ -45,6 +51,15 @@ def oracle_arrivals(result: Result) -> tuple[dict[int, int], dict[int, int]]:
                 if deadline is not None and t + c > deadline:
                     continue
                 arrival[v], hop[v] = t + c, hop[u] + 1
+
+    for rec, severed in result.states():
+        window.append((rec, severed))
+        while window[0][0]["t"] + c <= rec["t"]:
+            judge(*window.popleft())
+            if not window:
+                break
+    while window:
+        judge(*window.popleft())
     return arrival, hop
 
 
@@ -70,11 +85,11 @@ def _flood_frames(result: Result) -> tuple[dict, list]:
     """(src, seq) -> send tick of FLOOD frames, and FLOOD deliveries [src, seq, dst, sent, at]."""
     sent = {}
     deliveries = []
-    for rec in result.trace:
+    for rec in result.records():  # two streamed passes: a delivery may share its send's tick record
         for src, seq, kind, _dst, _size in rec.get("sent", []):
             if kind == KIND:
                 sent[(src, seq)] = rec["t"]
-    for rec in result.trace:
+    for rec in result.records():
         for src, seq, dst, sent_tick in rec.get("del", []):
             if (src, seq) in sent:
                 deliveries.append((src, seq, dst, sent_tick, rec["t"]))
@@ -104,7 +119,7 @@ def delivered(result: Result) -> Outcome:
 def component(result: Result) -> Outcome:
     """Every robot of the origin's component (true graph at origination) receives, with hop >= BFS distance."""
     p = _params(result)
-    t0 = min(rec["t"] for rec in result.trace if rec["t"] >= p["at"])
+    t0 = result.first_tick(p["at"])
     g = result.graph_at(t0)
     dist = nx.single_source_shortest_path_length(g, p["origin"])
     got = _receivers(result)

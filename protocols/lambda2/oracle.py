@@ -28,7 +28,8 @@ def laplacian_lambda2(g: nx.Graph) -> float:
 
 def components(result: Result) -> list[tuple[list[int], float]]:
     """(robots, λ2 of their component) for each connected component of the true graph at the last tick."""
-    g = result.graph_at(result.trace[-1]["t"])
+    rec, severed = result.last_state()
+    g = result.graph_at(rec["t"], rec=rec, severed=severed)
     return [(sorted(c), laplacian_lambda2(g.subgraph(c))) for c in nx.connected_components(g)]
 
 

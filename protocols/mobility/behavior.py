@@ -11,7 +11,12 @@ run stays a function of (scenario, seed).
   repeat. The last step of a leg lands on the waypoint exactly.
 * ``RandomWalk``: every ``turn_every`` ticks draw a heading uniformly in [0, 2π) and move ``speed · dt`` per
   tick along it; a step that would leave ``area`` is folded back into it (mirror reflection, coordinate by
-  coordinate) and the heading is mirrored too.
+  coordinate) and the heading is mirrored too. A robot that knows the map (its group's ``knows_map``, so
+  ``ctx.map``) also reflects off obstacles: a step that would cross one is not taken; the heading's x (y)
+  component is mirrored when the step's x (y) part alone would cross it (both when only the diagonal
+  would: a corner), and the robot steps along the mirrored heading if that is clear, else stays. Against
+  walls parallel to the axes (grid maps, upright rectangles) this is the mirror reflection; against slanted
+  walls it approximates it.
 """
 
 from __future__ import annotations
@@ -156,7 +161,25 @@ class RandomWalk(_Mobility):
             self.reflections += 1
             cx, cy = math.cos(self.heading) * (-1 if fx else 1), math.sin(self.heading) * (-1 if fy else 1)
             self.heading = math.atan2(cy, cx)
+        known = ctx.map
+        if known is not None and not known.clear((x, y), (nx_, ny_), ctx.kind == "ground"):
+            nx_, ny_ = self._off_obstacle(known, x, y, nx_ - x, ny_ - y, ctx.kind == "ground")
         ctx.move(((nx_ - x) / ctx.dt, (ny_ - y) / ctx.dt))
+
+    def _off_obstacle(self, known, x: float, y: float, dx: float, dy: float, ground: bool) -> tuple[float, float]:
+        """Mirror the heading off the obstacle that the step (dx, dy) would cross; where the robot goes instead."""
+        fx = not known.clear((x, y), (x + dx, y), ground)
+        fy = not known.clear((x, y), (x, y + dy), ground)
+        if not (fx or fy):
+            fx = fy = True  # only the diagonal crosses: a corner, back the way it came
+        self.reflections += 1
+        sin, cos = math.sin(self.heading), math.cos(self.heading)
+        self.heading = math.atan2(-sin if fy else sin, -cos if fx else cos)
+        dx, dy = -dx if fx else dx, -dy if fy else dy
+        if known.clear((x, y), (x + dx, y + dy), ground) and self.lo[0] <= x + dx <= self.hi[0] \
+                and self.lo[1] <= y + dy <= self.hi[1]:
+            return x + dx, y + dy
+        return x, y
 
     def report(self) -> dict:
         return super().report() | {"reflections": self.reflections}

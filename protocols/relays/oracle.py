@@ -18,7 +18,7 @@ from swarmactors import Outcome, Result
 def _timeline(result: Result):
     """Yield (tick, positions {id: (x, y)}, statuses {id: {field: value}}) tick by tick (replayed changes)."""
     status: dict[int, dict] = {}
-    for rec in result.trace:
+    for rec in result.records():
         for rid, fields in rec.get("status", {}).items():
             status.setdefault(int(rid), {}).update(fields)
         pos = {row[0]: tuple(row[1:]) for row in rec.get("pos", [])}  # 3-D in a 3-D world
@@ -65,7 +65,7 @@ def _whole(paths: list[list[int]], pos: dict, status: dict, rng: dict) -> bool:
 
 
 def _kills(result: Result) -> list[int]:
-    return sorted({rec["t"] for rec in result.trace for ev in rec.get("ev", ()) if "kill" in ev})
+    return sorted({rec["t"] for rec in result.records() for ev in rec.get("ev", ()) if "kill" in ev})
 
 
 def connected(result: Result, heal_window: float = 60.0) -> list[Outcome]:

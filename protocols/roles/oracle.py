@@ -139,7 +139,7 @@ def params(result: Result, name: str = "roles") -> dict:
 def timeline(result: Result) -> Iterator[tuple[int, dict[int, np.ndarray], dict[int, dict]]]:
     """Per tick: (t, {id: position}, {id: status so far}) - status after the robots' step at t."""
     status: dict[int, dict] = defaultdict(dict)
-    for rec in result.trace:
+    for rec in result.records():
         for rid, ch in rec.get("status", {}).items():
             status[int(rid)].update(ch)
         pos = {row[0]: np.array(row[1:3], dtype=float) for row in rec.get("pos", [])}
@@ -277,10 +277,23 @@ def gabriel(result: Result, grace: int = 2, min_formed: float = 0.0, exact: bool
     nm = _name(result, name)
     d_c = _link_range(result, nm)
     cross_grace = grace if cross_grace is None else cross_grace
-    views: list[tuple[int, dict, dict, dict]] = []  # (t, pos, role, {i: (conn, parent)})
-    for t, pos, st in timeline(result):
-        role = {r: st.get(r, {}).get("role") for r in pos}
-        views.append((t, pos, role, {r: (st.get(r, {}).get("conn") or [], st.get(r, {}).get("parent")) for r in pos}))
+    # (t, pos, role, {i: (conn, parent)}) by tick index, streamed: only ticks k - 2·grace .. k + grace are held
+    views: dict[int, tuple[int, dict, dict, dict]] = {}
+    source = timeline(result)
+    read = 0  # views read so far (all of them once the trace is over)
+
+    def fill(upto: int) -> None:
+        nonlocal read
+        if read > upto:
+            return
+        for t, pos, st in source:
+            role = {r: st.get(r, {}).get("role") for r in pos}
+            views[read] = (t, pos, role, {r: (st.get(r, {}).get("conn") or [], st.get(r, {}).get("parent"))
+                                          for r in pos})
+            read += 1
+            if read > upto:
+                return
+
     cache: dict[tuple[int, int], set] = {}
 
     def gab(a: int, b: int) -> set:
@@ -291,7 +304,7 @@ def gabriel(result: Result, grace: int = 2, min_formed: float = 0.0, exact: bool
 
     def acceptable(e: tuple[int, int], k: int) -> bool:
         for a in range(k, max(k - grace, 0) - 1, -1):
-            for b in range(max(a - grace, 0), min(a + grace, len(views) - 1) + 1):
+            for b in range(max(a - grace, 0), min(a + grace, read - 1) + 1):
                 if e in gab(a, b):
                     return True
         return False
@@ -303,9 +316,16 @@ def gabriel(result: Result, grace: int = 2, min_formed: float = 0.0, exact: bool
     fractions = []
     lg = mutual = set()
     t = None
-    for k, (t, pos, role, links) in enumerate(views):
+    k = -1
+    while True:
+        k += 1
+        fill(k + grace)
+        if k >= read:
+            break
+        t, pos, role, links = views[k]
         for old in [key for key in cache if key[0] < k - 2 * grace - 1]:
             del cache[old]
+        views.pop(k - 2 * grace - 1, None)
         now = gab(k, k)
         held = set()
         now_cross = {}

@@ -40,7 +40,7 @@ def connected_ticks(result: Result) -> tuple[int, int | None, int]:
     """(ticks checked, first disconnected tick or None, disconnected ticks)."""
     ranges = result.ranges()
     first, bad, n = None, 0, 0
-    for rec in result.trace:
+    for rec in result.records():
         ids, pos = _pos(rec)
         n += 1
         if len(ids) < 2:
@@ -66,7 +66,7 @@ def reach_times(result: Result, tol: float = 0.5) -> dict[str, float | None]:
     master, dt = _master(result), float(result["scenario"]["run"]["dt"])
     tasks = _tasks(result)
     out: dict[str, float | None] = {name: None for name, _ in tasks}
-    for rec in result.trace:
+    for rec in result.records():
         ids, pos = _pos(rec)
         keep = [k for k, i in enumerate(ids) if i != master]
         if not keep:
@@ -80,13 +80,14 @@ def reach_times(result: Result, tol: float = 0.5) -> dict[str, float | None]:
 def max_reach(result: Result) -> dict[str, float]:
     """For each task: the farthest a backbone robot got along the master → task direction (m)."""
     master = _master(result)
-    ids0, pos0 = _pos(result.trace[0])
+    ids0, pos0 = _pos(result.first_record())
     origin = pos0[ids0.index(master)]
-    best = {name: 0.0 for name, _ in _tasks(result)}
-    for name, p in _tasks(result):
-        u = (p - origin) / np.linalg.norm(p - origin)
-        for rec in result.trace:
-            ids, pos = _pos(rec)
+    tasks = _tasks(result)
+    best = {name: 0.0 for name, _ in tasks}
+    towards = {name: (p - origin) / np.linalg.norm(p - origin) for name, p in tasks}
+    for rec in result.records():
+        ids, pos = _pos(rec)
+        for name, u in towards.items():
             proj = (pos - origin) @ u
             proj[[k for k, i in enumerate(ids) if i == master]] = 0.0
             best[name] = max(best[name], float(proj.max()))
@@ -115,7 +116,7 @@ def angle_errors(result: Result) -> dict[int, float]:
     reports = result.reports("secs")
     master = _master(result)
     tasks = _tasks(result)
-    ids0, pos0 = _pos(result.trace[0])
+    ids0, pos0 = _pos(result.first_record())
     start = dict(zip(ids0, pos0, strict=True))
     out = {}
     recs = {}

@@ -12,7 +12,7 @@ from swarmactors import Outcome, Result
 
 # ------------------------------------------------------------------ oracle checks
 def _last_tick(result: Result) -> int:
-    return result.trace[-1]["t"]
+    return result.last_tick()
 
 
 def oracle_tables(result: Result, behavior: str = "stigmergy", graph: nx.Graph | None = None) -> dict[int, dict]:

@@ -15,6 +15,12 @@ class Made:
     def __getitem__(self, key):
         return self.data[key]
 
+    def records(self):  # the checks stream the records, as Result.records() does
+        return iter(self.trace)
+
+    def ticks(self):
+        return [rec["t"] for rec in self.trace]
+
 
 def _groups(n: int = 2) -> list[dict]:
     lead = {"positions": [[0.0, 0.0]], "body_radius": 0.1,
