@@ -374,7 +374,11 @@ def footer_problem(header: dict, records_hash: str, footer: dict | None) -> str 
     """``hash_problem`` for a digest of the records computed by the caller (``TraceHasher``) while streaming."""
     if footer is None:
         return None
-    if footer.get("trace_hash") != records_hash:
+    if header.get("mode") == "summary":  # the records as written: their own digest (trace_hash is the full run's)
+        if footer.get("summary_hash") != records_hash:
+            return (f"hash mismatch: footer summary_hash {footer.get('summary_hash')}, records {records_hash} "
+                    "(edited or corrupt)")
+    elif footer.get("trace_hash") != records_hash:
         return f"hash mismatch: footer {footer.get('trace_hash')}, records {records_hash} (edited or corrupt)"
     if footer.get("header_hash") is not None and footer["header_hash"] != digest(header):
         return "the header does not match its hash in the footer (edited or corrupt)"

@@ -70,3 +70,22 @@ def test_every_mode_gives_the_full_records_hash(tmp_path, mode, as_arrays):
 def test_an_unknown_mode_is_refused():
     with pytest.raises(ValueError, match="trace mode 'some'"):
         TraceWriter(None, {}, mode="some")
+
+
+@pytest.mark.parametrize("mode", ["full", "summary"])
+def test_a_trace_of_either_mode_verifies_and_an_edited_one_does_not(tmp_path, mode):
+    from swarmactors.trace import TraceError, verify
+
+    path = tmp_path / "trace.msgpack"
+    w = TraceWriter(path, {"run_id": "r"}, mode=mode)
+    for rec in records(True):
+        w.record(rec)
+    w.close()
+    assert verify(path) == w.trace_hash  # a summary trace is checked against its summary_hash
+    header, recs, footer = read_trace(path)
+    recs[1]["pos"][0][1] = 9.0  # one coordinate edited
+    with open(path, "wb") as f:
+        for obj in (header, *recs, footer):
+            f.write(msgpack.packb(obj, use_bin_type=True))
+    with pytest.raises(TraceError, match="hash mismatch"):
+        verify(path)
