@@ -136,7 +136,12 @@ class Result:
         """Robot ``rid``'s frame counters: sent, received, dropped by cause (as sender), from result.json."""
         return self.data["world"]["per_robot"][str(rid)]
 
-    frames = frame_counts  # the older name, kept: tests and docs read ``result.frames(rid)``
+    def frames(self, rid: int | None = None):
+        """The frames table as a pandas DataFrame (``frames_table``), or with ``rid`` that robot's counters.
+
+        ``frames(rid)`` is ``frame_counts(rid)``, the older meaning, kept.
+        """
+        return self.frames_table() if rid is None else self.frame_counts(rid)
 
     def reports(self, behavior: str) -> dict[int, dict]:
         """Robot id -> that behaviour's report (robots without it are left out)."""
