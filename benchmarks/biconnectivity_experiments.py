@@ -614,18 +614,18 @@ def emulated_coverage(quick: bool, reps: dict[float, int], jobs: int = 2, episod
     done: dict[tuple, dict] = {}
     if runs_file is not None and runs_file.exists():
         for line in runs_file.read_text().splitlines():
-            run = json.loads(line)
-            done[(run["cr"], run["method"], run["seed"], run["episodes_asked"])] = run
+            got = json.loads(line)
+            done[(got["cr"], got["method"], got["seed"], got["episodes_asked"])] = got
     t0 = time.perf_counter()
     with ProcessPoolExecutor(jobs) as pool:
         futures = {pool.submit(_emulated_job, a): a for a in todo if a not in done and run}
         for fut in as_completed(futures):
-            run = dict(fut.result(), episodes_asked=futures[fut][3])
-            done[futures[fut]] = run
-            print(f"  cr={run['cr']} seed={run['seed']}: {run['mean_coverage']:.3f} ({run['wall_s']} s)", flush=True)
+            got = dict(fut.result(), episodes_asked=futures[fut][3])
+            done[futures[fut]] = got
+            print(f"  cr={got['cr']} seed={got['seed']}: {got['mean_coverage']:.3f} ({got['wall_s']} s)", flush=True)
             if runs_file is not None:
                 with runs_file.open("a") as f:
-                    f.write(json.dumps(run, default=float) + "\n")
+                    f.write(json.dumps(got, default=float) + "\n")
     out: dict = {"wall_s": round(time.perf_counter() - t0, 1)}
     for cr in reps:
         runs = [done[a] for a in todo if a[0] == float(cr) and a in done]
