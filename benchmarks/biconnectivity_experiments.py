@@ -60,9 +60,12 @@ PAPER = {"messages_35": 69, "coverage_cr4": 0.91, "coverage_cr2": 0.73, "coverag
 
 
 # ================================================================ emulator runs
-def run_check(positions, n_max: int, loss: float = 0.0, seed: int = 1, budget: int = 10**7, initiator: int = 0):
+def run_check(positions, n_max: int, loss: float = 0.0, seed: int = 1, budget: int = 10**7, initiator: int = 0,
+              repeat: int = 1):
     beh = {"use": "biconnectivity", "N": n_max, "c": 1, "initiator": initiator, "at": 1, "hello": 0,
            "budget": budget}
+    if repeat != 1:
+        beh["repeat"] = repeat  # R13
     sc = {"run": {"name": "bic-exp", "seed": seed, "ticks": 6 * n_max + 8, "trace": True},
           "radio": {"range": 1.0, "latency": 1, "loss": loss},
           "robots": [{"positions": [list(map(float, p)) for p in positions], "behaviors": [beh]}]}
@@ -416,8 +419,261 @@ def plot_coverage(data: dict, path: Path) -> None:
     plt.close(fig)
 
 
+# ================================================================ coverage through the emulator
+BUSY_ROLES = ("joiner", "leader", "initiator")
+
+
+def emulated_experiment(cr: float, method: str, seed: int, episodes: int = 100, start: int = 5, n_max: int = 10,
+                        speed: float = 0.25, max_wait: int = 600, budget: int = 20000, graph: str = "structure",
+                        repeat: int = 1) -> dict:
+    """One experiment of the paper's coverage protocol, run by the robots in the emulator (lockstep).
+
+    Regions of diameter D = 1 (``region`` = 0.5), radio range cr·D. The world starts with robot 0 at the
+    origin; a driver on the world's control interface (pause / run_to, ``add``, ``kill``) plays the episodes:
+    an addition puts a new robot with ``joiner = true`` at a uniformly random point within half the neighbour
+    distance of a random robot (so that it hears someone), and the robot finds its region itself (POS-REQUEST,
+    heuristic, approach, settle: R11) moving with the world's kinematics; a removal kills a random robot, and
+    its neighbours notice the silence, the lowest-id one leads, MOVE floods travel and the leader's check
+    (Algorithm 3) decides whether further moves are needed (R12). The first ``start`` - 1 additions build the
+    initial structure and are not episodes. After each action the driver waits until no robot is a joiner, a
+    removal leader or a check initiator and none moves (at most ``max_wait`` ticks), then measures coverage
+    from the world's true positions: area of the union of the regions over S = n·π(D/2)².
+    The robots never see the world's positions except their own; everything else comes from HELLO / POS-REPLY.
+    """
+    import msgpack
+
+    from transport import unpack
+
+    D, rho = 1.0, 0.5
+    reach = cr * D - 2 * rho
+    safe = reach * 0.98
+    rng = np.random.default_rng(seed + 7919 * int(cr))
+    beh = {"use": "biconnectivity", "N": n_max, "c": 1, "hello": 2, "silence": 6, "region": rho, "speed": speed,
+           "placement": method, "budget": budget, "graph": graph, "repeat": repeat}
+    ticks = (episodes + start) * (max_wait + 40)
+    sc = {"run": {"name": "bic-coverage", "seed": seed, "ticks": ticks, "trace": False, "dt": 1.0},
+          "radio": {"range": cr * D, "latency": 1},
+          "world": {"max_robots": 10 * episodes + 50},  # killed robots keep their ids
+          "robots": [{"positions": [[0.0, 0.0]], "speed": speed, "behaviors": [beh]}]}
+    sc = resolve_scenario(sc, "<emulated coverage>")
+    log: dict = {"cover": [], "sizes": [], "episodes": [], "waits": [], "timeouts": 0, "states": []}
+    truth: dict = {"removals": {}, "joins": {}}  # d and the heuristic's best value from the true positions
+
+    def on_open(world, link) -> None:
+        clock = world.clock
+        clock.run_to(1)  # paused before tick 1, before the world starts: the driver's first action is at tick 1
+
+        async def control(cmd: str, **fields):
+            got = unpack(await link.query(world.keys.control, msgpack.packb({"cmd": cmd, **fields})))
+            if not got.get("ok"):
+                raise RuntimeError(f"control {cmd}: {got}")
+            return got
+
+        async def pause_at(t: int) -> None:
+            while not (clock.paused and clock.ticks_done == t):  # noqa: ASYNC110 — no per-tick event to await
+                await asyncio.sleep(0.0005)
+
+        def alive() -> list[int]:
+            return [int(r) for r in np.flatnonzero(world.robots.alive)]
+
+        def busy() -> bool:
+            for r in alive():
+                st = world.robots.status[r]
+                if st.get("role") in BUSY_ROLES or st.get("moving"):
+                    return True
+            return False
+
+        async def settle(t: int, min_wait: int) -> int:
+            t0 = t
+            while True:
+                t += 4
+                await control("run_to", tick=t)
+                await pause_at(t)
+                if t - t0 >= min_wait and not busy():
+                    return t
+                if t - t0 > max_wait:
+                    log["timeouts"] += 1
+                    return t
+
+        def positions() -> np.ndarray:
+            return np.array([world.robots.pos[r][:2] for r in alive()], dtype=float).reshape(-1, 2)
+
+        async def drive() -> None:
+            t = 1
+            await pause_at(t)
+            for k in range(episodes + start - 1):
+                ids = alive()
+                count = len(ids)
+                if k < start - 1:
+                    act = "add"
+                elif count >= n_max:
+                    act = "remove"
+                elif count == 0:
+                    act = "add"
+                else:
+                    act = "add" if rng.random() < 0.5 else "remove"
+                before = positions()
+                if act == "add":
+                    if len(ids):
+                        base = before[int(rng.integers(len(ids)))]
+                        ang, rad = rng.uniform(0, 2 * math.pi), safe / 2 * math.sqrt(rng.random())
+                        spot = base + rad * np.array([math.cos(ang), math.sin(ang)])
+                        b = dict(beh, joiner=True)
+                    else:
+                        spot, b = np.zeros(2), beh
+                    await control("add", args=[{"pos": [float(spot[0]), float(spot[1])], "speed": speed,
+                                                "range": cr * D,
+                                                "behaviors": [b]}])
+                    t = await settle(t, 2)
+                    others = before if len(ids) else np.zeros((0, 2))
+                    best = join_position(others, safe, method="heuristic") if len(others) else None
+                    truth["joins"][len(world.robots.status) - 1] = None if best is None else best[1]
+                else:
+                    victim = ids[int(rng.integers(len(ids)))]
+                    vpos = before[ids.index(victim)]
+                    nb = [i for i, r in enumerate(ids) if r != victim
+                          and np.linalg.norm(before[i] - vpos) <= reach + 1e-9]
+                    truth["removals"][victim] = removal_distance(before[nb], vpos, safe, reach / 100)
+                    await control("kill", args=[victim])
+                    t = await settle(t, 16)
+                log["waits"].append(t)
+                if k >= start - 1:
+                    pts = positions()
+                    log["episodes"].append({"act": act, "tick": t, "n": len(pts)})
+                    if len(pts):
+                        log["cover"].append(union_area(pts, rho) / (len(pts) * math.pi * rho * rho))
+                        log["sizes"].append(len(pts))
+                        log["states"].append(pts.round(4).tolist())
+            log["ticks"] = t
+
+        async def guarded() -> None:
+            try:
+                await drive()
+            except Exception as exc:  # the run stops; the caller raises
+                import traceback
+
+                log["error"] = traceback.format_exc()
+                raise exc from None
+            finally:
+                await control("stop")
+
+        log["task"] = asyncio.get_running_loop().create_task(guarded())
+
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        result = asyncio.run(run_world(sc, Path(tmp), Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"]),
+                                       new_run_id("bic-coverage"), on_open=on_open))
+        wall = time.perf_counter() - t0
+        reps = result.reports("biconnectivity")
+    if "error" in log:
+        raise RuntimeError(f"driver failed: {log['error']}")
+    removals = [dict(r, d_true=truth["removals"].get(r["removed"]))
+                for rep in reps.values() for r in rep.get("removals", [])]
+    joins = [dict(rep["join"], best_true=truth["joins"].get(rid)) for rid, rep in reps.items() if rep.get("join")]
+    checks = [ck for rep in reps.values() for ck in rep.get("checks", []) if ck.get("initiator")]
+    return {"cr": cr, "method": method, "seed": seed, "mean_coverage": float(np.mean(log["cover"])),
+            "pooled_coverage": float(np.sum(np.array(log["cover"]) * np.array(log["sizes"]))
+                                     / np.sum(log["sizes"])),
+            "mean_size": float(np.mean(log["sizes"])), "ticks": log["ticks"], "wall_s": round(wall, 2),
+            "timeouts": log["timeouts"], "cover": log["cover"], "sizes": log["sizes"], "states": log["states"],
+            "episodes": log["episodes"], "removals": removals, "joins": joins,
+            "check_verdicts": [ck.get("verdict") for ck in checks], 
+            "frames_sent": result["world"]["frames_sent"]}
+
+
+def _emulated_job(args: tuple) -> dict:
+    cr, method, seed, episodes = args
+    import logging
+
+    logging.getLogger().setLevel(logging.ERROR)
+    return emulated_experiment(cr, method, seed, episodes=episodes)
+
+
+def ci95(vals) -> tuple[float, float]:
+    """Mean and the half-width of its 95 % interval (Student's t over independent experiments)."""
+    from scipy import stats
+
+    v = np.asarray(vals, dtype=float)
+    if len(v) < 2:
+        return float(v.mean()), float("nan")
+    return float(v.mean()), float(stats.t.ppf(0.975, len(v) - 1) * v.std(ddof=1) / math.sqrt(len(v)))
+
+
+def emulated_coverage(quick: bool, reps: dict[float, int], jobs: int = 2, episodes: int = 100,
+                      runs_file: Path | None = None, run: bool = True) -> dict:
+    """The coverage experiment through the emulator: R independent experiments per cr, each ``episodes`` long.
+
+    The experiments of the cr values are interleaved; each finished one is appended to ``runs_file`` (JSON
+    lines) at once, and runs already there are reused, so an interrupted sweep resumes where it stopped.
+    """
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    eps = 20 if quick else episodes
+    todo = [(float(cr), "heuristic", s, eps) for s in range(1, max(reps.values()) + 1) for cr, r in reps.items()
+            if s <= (2 if quick else r)]
+    done: dict[tuple, dict] = {}
+    if runs_file is not None and runs_file.exists():
+        for line in runs_file.read_text().splitlines():
+            got = json.loads(line)
+            done[(got["cr"], got["method"], got["seed"], got["episodes_asked"])] = got
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(jobs) as pool:
+        futures = {pool.submit(_emulated_job, a): a for a in todo if a not in done and run}
+        for fut in as_completed(futures):
+            got = dict(fut.result(), episodes_asked=futures[fut][3])
+            done[futures[fut]] = got
+            print(f"  cr={got['cr']} seed={got['seed']}: {got['mean_coverage']:.3f} ({got['wall_s']} s)", flush=True)
+            if runs_file is not None:
+                with runs_file.open("a") as f:
+                    f.write(json.dumps(got, default=float) + "\n")
+    out: dict = {"wall_s": round(time.perf_counter() - t0, 1)}
+    for cr in reps:
+        runs = [done[a] for a in todo if a[0] == float(cr) and a in done]
+        out[f"cr{int(cr)}_heuristic"] = summarise_emulated(runs)
+    out["paper"] = {"cr4_heuristic": PAPER["coverage_cr4"], "cr2_heuristic": PAPER["coverage_cr2"]}
+    return out
+
+
+def summarise_emulated(runs: list[dict]) -> dict:
+    """Mean coverage with its 95 % interval over experiments, and what explains the gap (measured)."""
+    mean, half = ci95([x["mean_coverage"] for x in runs])
+    rem = [x for run in runs for x in run["removals"]]
+    d_off = [abs(x["d"][0] - x["d_true"]) for x in rem if x.get("d_true") is not None and x["d"]]
+    jv = [(j["value"], j["best_true"]) for run in runs for j in run["joins"]]
+    small = [x for x in rem if len(x["neighbours"]) <= 2]
+    by_n: dict = {}
+    for run in runs:
+        for c, n in zip(run["cover"], run["sizes"], strict=True):
+            by_n.setdefault(n, []).append(c)
+    o = {
+        "cr": runs[0]["cr"], "experiments": len(runs), "episodes": len(runs[0]["cover"]), "mean": mean,
+        "ci95": half, "per_experiment": [x["mean_coverage"] for x in runs],
+        "pooled": float(np.mean([x["pooled_coverage"] for x in runs])),
+        "mean_size": float(np.mean([x["mean_size"] for x in runs])),
+        "ticks": int(sum(x["ticks"] for x in runs)), "run_wall_s": float(sum(x["wall_s"] for x in runs)),
+        "timeouts": int(sum(x["timeouts"] for x in runs)),
+        "removals": len(rem), "d_prime_rounds": int(sum(x["rounds"] - 1 for x in rem)),
+        "removals_with_d_prime": int(sum(x["rounds"] > 1 for x in rem)),
+        "removals_two_or_fewer_exneighbours": len(small),
+        "d_prime_rounds_two_or_fewer": int(sum(x["rounds"] - 1 for x in small)),
+        "verdicts": {str(v): int(sum(x["verdict"] == v for x in rem)) for v in (True, False, None)},
+        "d_error_max": float(max(d_off)) if d_off else 0.0,
+        "d_error_mean": float(np.mean(d_off)) if d_off else 0.0,
+        "mean_d": float(np.mean([x["d"][0] for x in rem if x["d"]])) if rem else 0.0,
+        "join_value_ratio_min": float(min((a / b for a, b in jv if b), default=float("nan"))),
+        "join_value_ratio_mean": float(np.mean([a / b for a, b in jv if b])) if jv else float("nan"),
+        "coverage_by_size": {str(n): [float(np.mean(v)), len(v)] for n, v in sorted(by_n.items())},
+        "frames_sent": int(sum(x["frames_sent"] for x in runs)),
+        "example": {k: runs[0][k] for k in ("cover", "sizes", "states")},
+    }
+    print(f"  emulated cr={o['cr']}: {mean:.3f} +- {half:.3f} (95 %) over {len(runs)} experiments; d' rounds "
+          f"{o['d_prime_rounds']} ({o['d_prime_rounds_two_or_fewer']} with <= 2 ex-neighbours); "
+          f"|d - d_true| max {o['d_error_max']:.3f}; verdicts {o['verdicts']}", flush=True)
+    return o
+
+
 # ================================================================ loss
-def loss_sweep(quick: bool) -> dict:
+def loss_sweep(quick: bool, repeat: int = 1) -> dict:
     graphs = {
         "ring8": (ring(8), True),
         "ladder2x4": (np.array([[S * i, 0.0] for i in range(4)] + [[S * i, S] for i in range(4)]), True),
@@ -433,7 +689,7 @@ def loss_sweep(quick: bool) -> dict:
                "checks_on_not_biconnected": 0, "wrong_on_not_biconnected": 0, "missing_on_not_biconnected": 0}
         for pts, truth in graphs.values():
             for seed in seeds:
-                result, _, _ = run_check(pts, n_max=max(len(pts), 3), loss=p, seed=seed)
+                result, _, _ = run_check(pts, n_max=max(len(pts), 3), loss=p, seed=seed, repeat=repeat)
                 assert result["stop_reason"] is None
                 cls = "biconnected" if truth else "not_biconnected"
                 for rep in result.reports("biconnectivity").values():
@@ -451,24 +707,28 @@ def loss_sweep(quick: bool) -> dict:
                             agg["wrong_true" if ck["verdict"] else "wrong_false"] += 1
         rows.append(agg)
         print(f"  loss p={p:.2f}: {agg}", flush=True)
-    return {"graphs": list(graphs), "seeds": len(seeds), "rows": rows}
+    return {"graphs": list(graphs), "seeds": len(seeds), "rows": rows, "repeat": repeat}
 
 
-def plot_loss(data: dict, path: Path) -> None:
-    rows = data["rows"]
-    p = [r["p"] for r in rows]
-    fig, ax = plt.subplots(figsize=(6.5, 4), dpi=110)
-    for cls, colour in (("biconnected", "tab:blue"), ("not_biconnected", "tab:red")):
-        n = [max(1, r[f"checks_on_{cls}"]) for r in rows]
-        label = cls.replace("_", " ")
-        ax.plot(p, [r[f"wrong_on_{cls}"] / k for r, k in zip(rows, n, strict=True)], "o-", color=colour,
-                label=f"wrong verdict, {label} graphs")
-        ax.plot(p, [r[f"missing_on_{cls}"] / k for r, k in zip(rows, n, strict=True)], "x--", color=colour,
-                label=f"no verdict (timeout), {label} graphs")
+def plot_loss(data: dict, path: Path, repeat2: dict | None = None) -> None:
+    """False verdicts and timeouts against the loss p; with ``repeat2``, the same with R13 (dashed lines)."""
+    fig, ax = plt.subplots(figsize=(7, 4.3), dpi=110)
+    for d, ls, tag in ((data, "-", "paper (repeat = 1)"), (repeat2, "--", "repeat = 2")):
+        if d is None:
+            continue
+        rows = d["rows"]
+        p = [r["p"] for r in rows]
+        for cls, colour in (("biconnected", "tab:blue"), ("not_biconnected", "tab:red")):
+            n = [max(1, r[f"checks_on_{cls}"]) for r in rows]
+            label = cls.replace("_", " ")
+            ax.plot(p, [r[f"wrong_on_{cls}"] / k for r, k in zip(rows, n, strict=True)], "o" + ls, color=colour,
+                    label=f"wrong verdict, {label} graphs, {tag}")
+            ax.plot(p, [r[f"missing_on_{cls}"] / k for r, k in zip(rows, n, strict=True)], "x" + ls, color=colour,
+                    alpha=0.5, label=f"no verdict (timeout), {label} graphs, {tag}")
     ax.set_xlabel("per-frame loss p")
     ax.set_ylabel("fraction of check-running robots")
     ax.set_title(f"The check under loss ({', '.join(data['graphs'])}; {data['seeds']} seeds)", fontsize=10)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=6.5)
     ax.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(path)
@@ -480,7 +740,13 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="fewer graphs, seeds and runs")
     ap.add_argument("--img", default=str(ROOT / "docs" / "img"))
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "biconnectivity.json"))
-    ap.add_argument("--only", choices=["messages", "coverage", "loss"], default=None)
+    ap.add_argument("--only", choices=["messages", "coverage", "emulated", "loss", "loss-repeat"], default=None)
+    ap.add_argument("--reps", default="2:16,4:8", help="emulated coverage: experiments per cr, 'cr:R,cr:R'")
+    ap.add_argument("--jobs", type=int, default=2, help="worker processes for the emulated coverage")
+    ap.add_argument("--aggregate", action="store_true",
+                    help="emulated coverage: summarise the finished experiments in --runs, run nothing")
+    ap.add_argument("--runs", default=str(ROOT / "out" / "biconnectivity_emulated_runs.jsonl"),
+                    help="emulated coverage: JSON lines of finished experiments, reused when resuming")
     args = ap.parse_args()
     img = Path(args.img)
     img.mkdir(parents=True, exist_ok=True)
@@ -495,10 +761,20 @@ def main() -> None:
         print("coverage (cr = range / region diameter):")
         data["coverage"] = coverage(args.quick)
         plot_coverage(data["coverage"], img / "biconnectivity-coverage.png")
+    if args.only in (None, "emulated"):
+        print("coverage through the emulator:")
+        reps = {float(a): int(b) for a, b in (x.split(":") for x in args.reps.split(","))}
+        data["emulated_coverage"] = emulated_coverage(args.quick, reps, args.jobs,
+                                                      runs_file=Path(args.runs) if args.runs else None,
+                                                      run=not args.aggregate)
     if args.only in (None, "loss"):
         print("the check under loss:")
         data["loss"] = loss_sweep(args.quick)
-        plot_loss(data["loss"], img / "biconnectivity-loss.png")
+    if args.only in (None, "loss", "loss-repeat"):
+        print("the check under loss, initiating messages sent twice (repeat = 2, R13):")
+        data["loss_repeat2"] = loss_sweep(args.quick, repeat=2)
+    if "loss" in data:
+        plot_loss(data["loss"], img / "biconnectivity-loss.png", data.get("loss_repeat2"))
     data.pop("wall_s", None)
     data["quick"] = args.quick
     data[f"wall_s_{args.only or 'all'}"] = round(time.perf_counter() - t0, 1)

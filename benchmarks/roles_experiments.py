@@ -90,6 +90,41 @@ def prelim_job(n: int, seed: int, ticks: int) -> dict:
     return row
 
 
+def triggers_job(n: int, seed: int, ticks: int) -> dict:
+    """Sec. IV-A, one walk: Algorithm 2's cost by trigger, with and without the circle tests of lines 9-15.
+
+    Three runs on the same walk (the walk draws only from ``ctx.rng``): proposed, proposed without lines 9-15
+    (``circles = false``: links are kept unless the role changed or |A_i| < eta_c) and the baseline, whose
+    links are the Gabriel graph cut at d_c (its mean degree is the Gabriel degree of the configuration).
+    """
+    import shutil
+
+    from protocols.roles.oracle import connectivity
+    from protocols.roles.scenarios import aat_scenario
+
+    logging.getLogger().setLevel(logging.ERROR)
+    row = {"n": n, "seed": seed, "ticks": ticks}
+    for label, kw in (("proposed", {}), ("no_circles", {"circles": False}), ("baseline", {"mode": "baseline"})):
+        result = _run(aat_scenario(n, seed, ticks, **kw))
+        reps = [r["aat"] for r in result.reports("aat").values()]
+        calls = sum(r["calls"] for r in reps)
+        trig = {k: float(np.mean([r["tests_by_trigger"][k] for r in reps])) for k in reps[0]["tests_by_trigger"]}
+        runs = {k: float(np.mean([r["runs_by_trigger"][k] for r in reps])) for k in reps[0]["runs_by_trigger"]}
+        full = sum(r["runs_by_trigger"]["role"] + r["runs_by_trigger"]["degree"] for r in reps)
+        row[label] = {
+            "tests_per_robot": float(np.mean([r["tests"] for r in reps])),
+            "baseline_tests_per_robot": float(np.mean([r["baseline_tests"] for r in reps])),
+            "tests_by_trigger": trig, "runs_by_trigger": runs,
+            "below_eta_fraction": sum(r["below_eta"] for r in reps) / max(calls, 1),
+            "mean_degree_before": sum(r["degree_sum"] for r in reps) / max(calls, 1),
+            "gabriel_degree_on_full_tests": sum(r["full_passed"] for r in reps) / max(full, 1),
+            "lambda2": connectivity(result, every=10).value,
+            "degree_end": float(np.mean([len(r["connections"]) for r in result.reports("aat").values()])),
+        }
+        shutil.rmtree(result.path.parent, ignore_errors=True)
+    return row
+
+
 def main_job(n: int, seed: int, ticks: int, params: dict | None = None) -> dict:
     """One patrol trial of Sec. IV-B; ``params`` go to ``patrol_scenario`` (``d_s``: the groups' sensing range)."""
     import shutil
@@ -401,7 +436,8 @@ def plot_main(rows: list[dict], img: Path, prefix: str = "roles") -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--trials", type=int, default=3, help="trials per N (the paper: 30)")
-    ap.add_argument("--only", choices=("prelim", "main"), default=None)
+    ap.add_argument("--only", choices=("prelim", "main", "triggers", "witnesses"), default=None)
+    ap.add_argument("--sizes", default=None, help="comma-separated N for --only triggers / witnesses")
     ap.add_argument("--jobs", type=int, default=max(1, min(2, multiprocessing.cpu_count())))
     ap.add_argument("--quick", action="store_true", help="fewer sizes and ticks (smoke run)")
     ap.add_argument("--replot", action="store_true",
@@ -471,6 +507,36 @@ def main() -> None:
             print(f"  N={n:2d}: targets {a['targets']:.1f}  disconnections {a['disconnections']:.1f} "
                   f"(mean {a['disconnection_mean']:.1f} ticks)  cpu/robot {a['cpu_s_per_robot']:.2f} s  "
                   f"msgs/robot/tick {a['received_per_tick']:.2f}  failed checks {a['checks_failed']}")
+    if args.only == "triggers":
+        ns = [int(x) for x in (args.sizes or "10,30,60,100").split(",")]
+        ticks = 200 if args.quick else 1000
+        print(f"triggers: N = {ns}, {ticks} ticks, {args.trials} trials")
+        rows = run_jobs(triggers_job, [(n, 1000 + s, ticks) for s in range(args.trials) for n in ns], args.jobs,
+                        "triggers")
+        results["triggers"] = {"ticks": ticks, "trials": args.trials, "rows": sorted(rows, key=lambda r: r["n"])}
+        for r in results["triggers"]["rows"]:
+            p, nc, b = r["proposed"], r["no_circles"], r["baseline"]
+            print(f"  N={r['n']:3d}: proposed {p['tests_per_robot']:.0f} tests/robot "
+                  f"(-{100 * (1 - p['tests_per_robot'] / b['tests_per_robot']):.0f}% vs baseline) by trigger "
+                  f"{ {k: round(v) for k, v in p['tests_by_trigger'].items()} }; without circles "
+                  f"{nc['tests_per_robot']:.0f} (-{100 * (1 - nc['tests_per_robot'] / b['tests_per_robot']):.0f}%)"
+                  f"; |A_i| < eta_c on {100 * p['below_eta_fraction']:.0f}% of calls, mean |A_i| "
+                  f"{p['mean_degree_before']:.2f}, Gabriel degree (baseline) {b['mean_degree_before']:.2f}; "
+                  f"lambda2 {p['lambda2']:.3f} / {nc['lambda2']:.3f} / {b['lambda2']:.3f}", flush=True)
+    if args.only == "witnesses":
+        ns = [int(x) for x in (args.sizes or "10,30,50").split(",")]
+        ticks = 500 if args.quick else 2000
+        params = {"witnesses": "all", **({"d_s": args.d_s} if args.d_s else {})}
+        print(f"patrol with the paper's witness set: N = {ns}, {ticks} ticks, {args.trials} trials, {params}")
+        rows = run_jobs(main_job, [(n, 2000 + s, ticks, params) for s in range(args.trials) for n in ns],
+                        args.jobs, "witnesses")
+        key = "witnesses_all" + (f"_ds{args.d_s}" if args.d_s else "")
+        results[key] = {"ticks": ticks, "trials": args.trials, "params": params,
+                        "rows": sorted(rows, key=lambda r: (r["n"], r["seed"]))}
+        for r in results[key]["rows"]:
+            print(f"  N={r['n']:2d} seed {r['seed']}: disconnections {r['disconnections']} (mean "
+                  f"{r['disconnection_mean']:.1f}, max {r['disconnection_max']}), robot-ticks "
+                  f"{r['disconnected_robot_ticks']}, targets {r['targets']}, checks {r['checks']}", flush=True)
     results["wall_s"] = round(time.time() - t0, 1)
     args.out.write_text(json.dumps(results, indent=1, default=float))
     print(f"wrote {args.out} and docs/img/roles-*.png in {results['wall_s']} s")

@@ -73,6 +73,20 @@ The check (Algorithm 3)
   non-negative integer and S a non-empty list of at most N distinct integers
   whose last stamp is the sender is dropped, counted in ``malformed`` (by
   reason), and never relayed or joined.
+* **R13 - repeated fills** (``repeat``, beyond the paper; default 1 = the
+  paper). A robot sends each initiating message ``repeat`` times when it joins
+  a period; every copy is relayed like any frame, so each simple path is tried
+  ``repeat`` times with independent losses and a lost copy no longer removes
+  an id from DCR as easily. Traffic grows ``repeat``-fold; the timing (3Nc,
+  6Nc + 2c) is unchanged. A robustness layer for lossy links, which the paper
+  does not have (Assumption 4: reliable links).
+* **R14 - the graph the fills run on** (``graph``; default ``"radio"``). The
+  paper calls two robots neighbours when they can talk from anywhere in their
+  regions. With ``region = 0`` that is the radio graph. With regions, the
+  radio reaches further than that, and ``graph = "structure"`` makes a robot
+  ignore (count, not relay) CR/DCR frames from a sender whose region centre,
+  as its table knows it (R10), is beyond the structure-neighbour distance: the
+  check then judges the structure graph, the one Theorems 3 and 4 speak of.
 
 Maintaining the structure (add and remove)
 ==========================================

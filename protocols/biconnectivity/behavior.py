@@ -31,8 +31,11 @@ class Biconnectivity(Behavior):
                  hello: int = 2, silence: int = 6, region: float = 0.0, margin: float = 0.02,
                  speed: float = 0.05, d_step: float | None = None, d_more: float | None = None,
                  max_rounds: int = 10, joiner: bool = False,
-                 placement: str = "heuristic", leave: list | None = None, maintain: bool = True):
+                 placement: str = "heuristic", leave: list | None = None, maintain: bool = True,
+                 repeat: int = 1, graph: str = "radio"):
         self.N, self.c = int(N), float(c)
+        self.repeat = int(repeat)  # initiating messages per kind and period (R13; 1 = the paper)
+        self.graph = graph  # R14: the fills run over the radio graph or over the structure-neighbour graph
         ids = [] if initiator is None else ([initiator] if isinstance(initiator, int) else list(initiator))
         ats = at if isinstance(at, list) else [at] * len(ids)
         self.start_at = dict(zip(ids, ats, strict=True))  # initiator id -> tick of its first check
@@ -93,7 +96,7 @@ class Biconnectivity(Behavior):
         ``group`` is the robot group as the scenario resolved it (its ``range`` is the robots' radio range):
         two regions must fit in it.
         """
-        for key in ("N", "budget"):
+        for key in ("N", "budget", "repeat"):
             if key in params and (not is_int(params[key]) or params[key] < 1):
                 return f"{key} = {params[key]!r} must be an integer >= 1"
         at = params.get("at", 0)
@@ -128,6 +131,8 @@ class Biconnectivity(Behavior):
                 return problem
         if ini is not None and not (is_int(ini) or (isinstance(ini, list) and all(is_int(i) for i in ini))):
             return f"initiator = {ini!r} must be a robot id or a list of ids"
+        if params.get("graph", "radio") not in ("radio", "structure"):
+            return "graph must be 'radio' or 'structure'"
         if params.get("placement", "heuristic") not in ("heuristic", "min_intersection"):
             return "placement must be 'heuristic' or 'min_intersection'"
         lv = params.get("leave")
@@ -175,9 +180,10 @@ class Biconnectivity(Behavior):
         if ck is not None and not ck["evaluated"]:
             ck["period"] = p  # a newer fill supersedes: the check evaluates on it
         ctx.set_status(period=p)
-        for kind in (CR, DCR):
-            ctx.broadcast(kind, [p, [ctx.id]])
-            st["sent"][kind] += 1
+        for _ in range(self.repeat):  # R13: repeat > 1 sends independent copies (the relay treats each alike)
+            for kind in (CR, DCR):
+                ctx.broadcast(kind, [p, [ctx.id]])
+                st["sent"][kind] += 1
 
     def _see_period(self, ctx: Context, p: int, kind: str) -> bool:
         """Join a newer period; False (and counted stale) for an older one."""
@@ -207,10 +213,19 @@ class Biconnectivity(Behavior):
             return "last stamp is not the sender"
         return p, s
 
+    def _structure_neighbour(self, ctx: Context, src: int) -> bool:
+        """R14: ``src``'s region centre, as this robot's table knows it, within the structure-neighbour distance."""
+        row = self.table.get(src)
+        return row is not None and float(np.linalg.norm(np.array(row[:2]) - np.array(ctx.position[:2], dtype=float))
+                                        ) <= self.reach * (1 + 1e-9)
+
     def _on_stamped(self, ctx: Context, frame: Frame) -> None:
         got = self._stamps(frame)
         if isinstance(got, str):
             self.malformed[got] += 1
+            return
+        if self.graph == "structure" and not self._structure_neighbour(ctx, frame.src):
+            self.other["not-structure-neighbour"] += 1
             return
         p, s = got
         if not self._see_period(ctx, p, frame.kind):
@@ -470,21 +485,20 @@ class Biconnectivity(Behavior):
         self.removed.add(r)
         self.heard.pop(r, None)
         entry = self.table.pop(r, None)
-        nbrs = set(entry[3]) if entry else set()
-        nbrs.add(ctx.id)
-        nbrs = {v for v in nbrs if v != r and v not in self.removed}
-        if min(nbrs) != ctx.id or (self.leading is not None and self.leading["ended"] is None):
-            return
         if entry is None:
             return
         pos = np.array(entry[:2])
+        here = [float(x) for x in ctx.position[:2]]
+        centres = {v: (here if v == ctx.id else self.table[v][:2])
+                   for v in set(entry[3]) | {ctx.id} if v != r and v not in self.removed
+                   and (v == ctx.id or v in self.table)}
+        # G_r: r's *structure* neighbours (their regions can talk to r's from anywhere), not every robot r heard:
+        # with regions (region > 0) the radio reaches further than the structure-neighbour distance
+        nbrs = {v for v, c in centres.items() if np.linalg.norm(np.array(c) - pos) <= self.reach * (1 + 1e-9)}
+        if ctx.id not in nbrs or min(nbrs) != ctx.id or (self.leading is not None and self.leading["ended"] is None):
+            return
         ids = sorted(nbrs)
-        pts = []
-        for v in ids:
-            if v == ctx.id:
-                pts.append([float(x) for x in ctx.position[:2]])
-            elif v in self.table:
-                pts.append(self.table[v][:2])
+        pts = [centres[v] for v in ids]
         d = removal_distance(np.array(pts), pos, self.safe, self.d_step)
         self.leading = {"removed": r, "how": how, "pos": pos.tolist(), "neighbours": ids, "d": [], "rounds": 0,
                         "started": ctx.tick, "verdict": None, "ended": None, "checking": False, "check_at": None}

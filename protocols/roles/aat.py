@@ -53,10 +53,20 @@ class Connections:
     |A_i| through ``fixed``.
     """
 
-    __slots__ = ("mode", "eta_c", "d_c", "links", "tests", "baseline_tests", "runs", "wall", "calls")
+    __slots__ = ("mode", "eta_c", "d_c", "circles", "links", "tests", "baseline_tests", "runs", "wall", "calls",
+                 "by_trigger", "runs_by_trigger", "below_eta", "degree_sum", "full_passed")
 
-    def __init__(self, mode: str = PROPOSED, eta_c: int = 3, d_c: float = 1.0):
+    def __init__(self, mode: str = PROPOSED, eta_c: int = 3, d_c: float = 1.0, circles: bool = True):
         self.mode, self.eta_c, self.d_c = mode, eta_c, d_c
+        self.circles = circles  # False: skip lines 9-15 (links kept unless lines 4-7 trigger), for comparison
+        # angle tests by what triggered them: "role" (lines 4-5, and a disconnected robot's every-tick test),
+        # "degree" (lines 6-7, |A_i| < eta_c), "circle" (the circle tests of lines 9-15), "circle_aat" (lines
+        # 17-25 on the robots the circles found), "repair" (a robot that believes it is linked to us)
+        self.by_trigger = dict.fromkeys(("role", "degree", "circle", "circle_aat", "repair"), 0)
+        self.runs_by_trigger = dict.fromkeys(("role", "degree", "circle", "repair"), 0)
+        self.below_eta = 0  # calls with |A_i| (chain links included) < eta_c
+        self.degree_sum = 0  # sum over calls of |A_i| before the call
+        self.full_passed = 0  # robots passing a full test (lines 4-7): the Gabriel degree then
         self.links: set[int] = set()
         self.tests = 0  # angle tests done
         self.baseline_tests = 0  # angle tests the baseline would have done on the same inputs
@@ -85,15 +95,21 @@ class Connections:
         cand = [k for k in np.flatnonzero(near).tolist() if ids[k] not in unlinkable]  # R_l, as indices
         self.baseline_tests += len(cand) * max(w - 1, 0)
         known_fail: set[int] = set()  # links whose circle test just failed: their AAT cannot pass
-        if self.mode == BASELINE or role_changed or force_all or len(keep) + fixed < self.eta_c:
+        degree = len(keep) + fixed
+        self.degree_sum += degree
+        self.below_eta += degree < self.eta_c
+        trigger = ("role" if role_changed or force_all or self.mode == BASELINE
+                   else "degree" if degree < self.eta_c else "circle")
+        if trigger != "circle":
             r_aat = set(cand)  # lines 4-7 (and the baseline: every detectable robot, every tick)
         else:  # lines 9-15: only links whose circle C_ij now holds another robot, and those robots
             r_aat = set()
-            if keep:
+            if keep and self.circles:
                 lk = [index[j] for j in sorted(keep)]
                 blk = blocked(xi, pos[lk], pos)
                 blk[np.arange(len(lk)), lk] = False
                 self.tests += len(lk) * (w - 1)
+                self.by_trigger["circle"] += len(lk) * (w - 1)
                 rows = np.flatnonzero(blk.any(axis=1)).tolist()
                 if rows:
                     cand_set = set(cand)
@@ -101,6 +117,7 @@ class Connections:
                         known_fail.add(lk[row])
                         r_aat.update(k for k in np.flatnonzero(blk[row]).tolist() if k in cand_set)
         extra_idx = {index[j] for j in extra if j in index and near[index[j]] and j not in unlinkable}
+        found = set(r_aat)
         r_aat = (r_aat | extra_idx) - known_fail
         passed: set[int] = set()
         failed: set[int] = {ids[k] for k in known_fail}
@@ -110,9 +127,17 @@ class Connections:
             blk = blocked(xi, pos[order], pos)
             blk[np.arange(len(order)), order] = False
             self.tests += len(order) * (w - 1)
+            n_repair = len(r_aat - found) if trigger == "circle" else 0  # tested only because of ``extra``
+            key = "circle_aat" if trigger == "circle" else trigger
+            self.by_trigger[key] += (len(order) - n_repair) * (w - 1)
+            self.by_trigger["repair"] += n_repair * (w - 1)
+            self.runs_by_trigger["circle" if trigger == "circle" and n_repair < len(order)
+                                 else "repair" if trigger == "circle" else trigger] += 1
             ok = (~blk.any(axis=1)).tolist()
             for row, kj in enumerate(order):
                 (passed if ok[row] else failed).add(ids[kj])
+            if trigger != "circle":
+                self.full_passed += len(passed)
         new = passed | (keep - failed)
         self.links = new
         self.wall += time.perf_counter() - t0
@@ -122,4 +147,6 @@ class Connections:
 
     def report(self) -> dict:
         return {"tests": self.tests, "baseline_tests": self.baseline_tests, "runs": self.runs,
-                "calls": self.calls, "wall_s": round(self.wall, 6)}
+                "calls": self.calls, "wall_s": round(self.wall, 6), "tests_by_trigger": dict(self.by_trigger),
+                "runs_by_trigger": dict(self.runs_by_trigger), "below_eta": self.below_eta,
+                "degree_sum": self.degree_sum, "full_passed": self.full_passed}

@@ -89,7 +89,7 @@ class RoleSwitching(Behavior, _Timed):
         self.p = RoleParams.of(params)  # the scenario's keys, validated in one place (params.py)
         # the paper's d_c and d_s are the robot's radio and sensing ranges: read from the context in on_start
         self.d_c = self.d_s = math.nan
-        self.conn = Connections(self.p.aat, self.p.eta_c, math.nan)
+        self.conn = Connections(self.p.aat, self.p.eta_c, math.nan, circles=self.p.circles)
         self.role = EX
         self.role_changed = True  # Algorithm 2 line 4: the first tick counts as a change
         self.parent: int | None = None
@@ -684,8 +684,12 @@ class RoleSwitching(Behavior, _Timed):
     def _algorithm2(self, ctx: Context, x: np.ndarray) -> None:
         extra = sorted(self.repair)
         self.repair.clear()
-        ids, pos = self._participants()
         chain = {r for r in (self.parent, self.child, self.p.base) if r is not None}
+        if self.p.witnesses == "all":  # the paper's line 2 as printed: every sensed robot witnesses
+            ids, pos = self._sensed_ids, self._sensed_pos
+            chain |= {r for r in ids if self.known_role.get(r, EX) not in LINKABLE}
+        else:
+            ids, pos = self._participants()
         added, removed, rejected = self.conn.refresh(
             x, ids, pos, chain, self.role_changed,
             force_all=self.lost, extra=extra, fixed=1 if self.role == LL else 0)
@@ -800,9 +804,10 @@ class AATWalk(Behavior, _Timed):
     kinds = (CONNECT, DISCONNECT)
     plot_field = "degree"
 
-    def __init__(self, mode: str = PROPOSED, eta_c: int = 3, step: float = 1.0, walk_until: int | None = None):
+    def __init__(self, mode: str = PROPOSED, eta_c: int = 3, step: float = 1.0, walk_until: int | None = None,
+                 circles: bool = True):
         self.mode, self.step, self.walk_until = mode, step, walk_until
-        self.conn = Connections(mode, eta_c, math.nan)  # d_c from the context in on_start
+        self.conn = Connections(mode, eta_c, math.nan, circles=circles)  # d_c from the context in on_start
         self.first = True
         self.frame_cpu = 0.0
         self.received = 0
@@ -818,6 +823,8 @@ class AATWalk(Behavior, _Timed):
             return f"step = {params['step']!r} must be a positive number"
         if "eta_c" in params and (not is_int(params["eta_c"]) or params["eta_c"] < 0):
             return f"eta_c = {params['eta_c']!r} must be a non-negative integer"
+        if "circles" in params and not isinstance(params["circles"], bool):
+            return f"circles = {params['circles']!r} must be true or false"
         return None
 
     def on_start(self, ctx: Context) -> None:

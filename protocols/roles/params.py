@@ -16,8 +16,9 @@ from protocols.roles.aat import MODES, PROPOSED
 from swarmactors.behavior import is_int, is_num
 
 # kinds of value (a field's ``metadata["kind"]``) and what each accepts
-ROBOT_ID, FRACTION, POSITIVE, GAIN, COUNT, MODE, TARGETS = (
-    "robot id", "fraction", "positive", "gain", "count", "mode", "targets")
+ROBOT_ID, FRACTION, POSITIVE, GAIN, COUNT, MODE, TARGETS, WITNESSES, FLAG = (
+    "robot id", "fraction", "positive", "gain", "count", "mode", "targets", "witnesses", "flag")
+WITNESS_SETS = ("linkable", "all")
 RULES = {
     ROBOT_ID: (lambda v: is_int(v) and v >= 0, "must be a robot id (non-negative integer)"),
     FRACTION: (lambda v: is_num(v) and 0 < v < 1, "must be a number in (0, 1) (a fraction of d_c)"),
@@ -25,6 +26,8 @@ RULES = {
     GAIN: (lambda v: is_num(v) and v >= 0, "must be a non-negative number"),
     COUNT: (lambda v: is_int(v) and v >= 1, "must be a positive integer"),
     MODE: (lambda v: v in MODES, f"must be one of {MODES}"),
+    WITNESSES: (lambda v: v in WITNESS_SETS, f"must be one of {WITNESS_SETS}"),
+    FLAG: (lambda v: isinstance(v, bool), "must be true or false"),
 }
 
 
@@ -50,6 +53,10 @@ class RoleParams:
     eta_b: float = _p(0.15, FRACTION, "Algorithm 1: retract when the parent is within eta_b d_c")
     eta_c: int = _p(3, COUNT, "Algorithm 2: test all sensed robots when |A_i| < eta_c")
     aat: str = _p(PROPOSED, MODE, "Algorithm 2 (proposed) or the every-tick baseline")
+    witnesses: str = _p("linkable", WITNESSES, "Algorithm 2's witnesses R_k: local leaders and explorers "
+                        "(linkable, ours) or every sensed robot, repeaters and the base station included (all, "
+                        "the paper as printed)")
+    circles: bool = _p(True, FLAG, "Algorithm 2 lines 9-15 (the circle tests); false skips them, for comparison")
     k1: float = _p(0.05, GAIN, "Eq. 1 gain")
     k2: float = _p(0.1, GAIN, "Eq. 2 gain (distance to the parent)")
     k3: float = _p(0.02, GAIN, "Eq. 2 gain (midpoint)")

@@ -80,8 +80,9 @@ def patrol_scenario(n: int = 10, seed: int = 1, ticks: int = 2000, loss: float =
 
 def aat_scenario(n: int = 20, seed: int = 1, ticks: int = 1000, mode: str = "proposed", d_c: float = 3.0,
                  eta_c: int = 3, step: float = 1.0, walk_until: int | None = None, loss: float = 0.0,
-                 checks: list[dict] | None = None, name: str | None = None, trace: bool = True) -> dict:
-    """Return the preliminary experiment of Sec. IV-A as a scenario.
+                 checks: list[dict] | None = None, name: str | None = None, trace: bool = True,
+                 circles: bool = True) -> dict:
+    """Return the preliminary experiment of Sec. IV-A as a scenario (``circles = False``: without lines 9-15).
 
     n explorers uniform in a sqrt(n) x sqrt(n) field, random walk
     of step ``step`` per tick in a uniform direction, d_c = d_s = 3 (the robots' radio and sensing ranges,
@@ -91,6 +92,8 @@ def aat_scenario(n: int = 20, seed: int = 1, ticks: int = 1000, mode: str = "pro
     beh = {"use": "aat", "mode": mode, "eta_c": eta_c, "step": step}
     if walk_until is not None:
         beh["walk_until"] = walk_until
+    if not circles:
+        beh["circles"] = False
     return {
         "run": {"name": name or f"roles-aat-{mode}-{n}", "seed": seed, "ticks": ticks, "trace": trace},
         "radio": {"range": d_c, "latency": 1, "loss": loss},
