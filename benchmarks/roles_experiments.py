@@ -18,6 +18,12 @@ timestep, targets reached.
 Trials run over worker processes (``spawn``), each in lockstep with its own seed. Plots go to
 ``docs/img/roles-*.png``; every number to the JSON file. With ``--quick``: fewer sizes and ticks, for a smoke
 run.
+
+Both experiments as sweeps (a trial = one run of ``prelim_job`` / ``main_job``; the post step draws the
+figures and writes the aggregates beside trials.csv), locally or on a Dask cluster, with the paper's 30 trials:
+
+    swarmactors sweep benchmarks/roles-fig3-5.toml [--cluster tcp://SCHEDULER:8786] [--trials 3]
+    swarmactors sweep benchmarks/roles-fig6-11.toml [--cluster ...] [--set witnesses='"all"'] [--set d_s=2.0]
 """
 
 from __future__ import annotations
@@ -181,6 +187,40 @@ def run_jobs(fn, args: list[tuple], jobs: int, label: str) -> list[dict]:
             out.append(fut.result())
             print(f"  {label}: {k}/{len(args)} done ({time.time() - t0:.0f} s)", flush=True)
     return out
+
+
+def prelim_trial(params: dict, *, seed: int, trial: int) -> dict:
+    """One trial of ``benchmarks/roles-fig3-5.toml``: N = ``n``, walk seed 1000 + ``trial`` (as ``main``)."""
+    return prelim_job(int(params["n"]), 1000 + trial, int(params["ticks"]))
+
+
+def main_trial(params: dict, *, seed: int, trial: int) -> dict:
+    """One patrol of ``benchmarks/roles-fig6-11.toml``: N = ``n``, seed 2000 + ``trial``; d_s, witnesses passed on."""
+    extra = {k: v for k, v in params.items() if k in ("d_s", "witnesses")}
+    return main_job(int(params["n"]), 2000 + trial, int(params["ticks"]), extra)
+
+
+def prelim_figures(csv_path: Path, out_dir: Path) -> list[Path]:
+    """The post step of the Figs. 3-5 sweep: the plots and ``preliminary.json`` (aggregates by N)."""
+    from swarmactors.sweep import returned_values
+
+    out = Path(out_dir)
+    agg = plot_prelim(returned_values(csv_path), out, None)
+    (out / "preliminary.json").write_text(json.dumps({"by_n": agg, "paper": PAPER}, indent=1, default=float))
+    return [out / "preliminary.json", *sorted(out.glob("roles-*.png"))]
+
+
+def main_figures(csv_path: Path, out_dir: Path) -> list[Path]:
+    """The post step of the Figs. 6-11 sweep: the plots and ``main.json`` (aggregates by N)."""
+    from swarmactors.sweep import returned_values
+
+    rows = returned_values(csv_path)
+    for r in rows:  # JSON keys are strings; the plots index robots by int
+        r["cpu_s"] = {int(k): v for k, v in r["cpu_s"].items()}
+    out = Path(out_dir)
+    agg = plot_main(rows, out)
+    (out / "main.json").write_text(json.dumps({"by_n": agg, "paper": PAPER}, indent=1, default=float))
+    return [out / "main.json", *sorted(out.glob("roles-*.png"))]
 
 
 # ================================================================== plots
