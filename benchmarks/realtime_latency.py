@@ -31,7 +31,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-import bench  # noqa: E402  (benchmarks/ is not a package)
+import bench_measure as bench  # noqa: E402  (benchmarks/ is not a package)
 
 
 def main() -> None:
