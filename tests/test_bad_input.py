@@ -34,6 +34,7 @@ from swarmactors.host import RobotHost
 from swarmactors.launcher import new_run_id, run_world
 from swarmactors.scenario import resolve_scenario, world_spec
 from swarmactors.trace import TraceError, TraceWriter, iter_trace, read_trace, verify
+from tests_support import FakeLink, FakeQuery
 from transport import Endpoints, Keys, Link, MalformedMessage, make_config, pack, seal, unpack
 from transport.codec import unpack_map
 from world.registry import HostEntry
@@ -587,37 +588,6 @@ VALUES = st.recursive(
     max_leaves=12,
 )
 FUZZ = settings(max_examples=250, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-
-
-class FakeLink:
-    """Enough of transport.Link for a World that is driven by hand."""
-
-    def __init__(self):
-        self.published: list[tuple[str, bytes]] = []
-
-    def publish(self, key, data, *, reliable=True):
-        self.published.append((key, data))
-
-    def serve(self, *a, **k):
-        pass
-
-    def subscribe(self, *a, **k):
-        pass
-
-    def watch_liveliness(self, *a, **k):
-        pass
-
-
-class FakeQuery:
-    def __init__(self, key: str, payload: bytes):
-        self.key, self.payload = key, payload
-        self.replies: list[tuple[str, object]] = []
-
-    def reply(self, data: bytes) -> None:
-        self.replies.append(("ok", data))
-
-    def reply_error(self, message: str) -> None:
-        self.replies.append(("err", message))
 
 
 FUZZ_RAW = {

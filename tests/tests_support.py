@@ -1,4 +1,4 @@
-"""Test-only behaviours (importable by spawned host processes: tests/ is put on their sys.path)."""
+"""Test-only behaviours (importable by spawned host processes: tests/ is put on their sys.path) and fakes."""
 
 from __future__ import annotations
 
@@ -34,3 +34,36 @@ class Clock(Behavior):
 
     def report(self) -> dict:
         return {"last_now": self.last_now, "sense_error": self.sense_error, "first": self.first}
+
+
+class FakeLink:
+    """Enough of transport.Link for a World or a host driven by hand, below Zenoh: puts are recorded."""
+
+    def __init__(self):
+        self.published: list[tuple[str, bytes]] = []
+
+    def publish(self, key, data, *, reliable=True):
+        self.published.append((key, data))
+
+    def serve(self, *a, **k):
+        pass
+
+    def subscribe(self, *a, **k):
+        pass
+
+    def watch_liveliness(self, *a, **k):
+        pass
+
+
+class FakeQuery:
+    """A query handed to a World by hand: its replies are recorded as ("ok", bytes) or ("err", message)."""
+
+    def __init__(self, key: str, payload: bytes):
+        self.key, self.payload = key, payload
+        self.replies: list[tuple[str, object]] = []
+
+    def reply(self, data: bytes) -> None:
+        self.replies.append(("ok", data))
+
+    def reply_error(self, message: str) -> None:
+        self.replies.append(("err", message))

@@ -23,6 +23,7 @@ import numpy as np
 from swarmactors.behavior import Behavior
 from swarmactors.host import Robot, RobotHost, run_calls
 from swarmactors.scenario import resolve_scenario, world_spec
+from tests_support import FakeLink, FakeQuery
 from transport import Keys, seal, unseal
 from transport.messages import (
     Ack,
@@ -38,35 +39,6 @@ from transport.messages import (
     encode,
 )
 from world import World
-
-
-class FakeLink:
-    def __init__(self):
-        self.published: list[tuple[str, bytes]] = []
-
-    def publish(self, key, data, *, reliable=True):
-        self.published.append((key, data))
-
-    def serve(self, *a, **k):
-        pass
-
-    def subscribe(self, *a, **k):
-        pass
-
-    def watch_liveliness(self, *a, **k):
-        pass
-
-
-class FakeQuery:
-    def __init__(self, key: str, payload: bytes):
-        self.key, self.payload = key, payload
-        self.replies: list[tuple[str, object]] = []
-
-    def reply(self, data: bytes) -> None:
-        self.replies.append(("ok", data))
-
-    def reply_error(self, message: str) -> None:
-        self.replies.append(("err", message))
 
 
 class Records(list):
