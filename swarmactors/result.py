@@ -26,8 +26,6 @@ import numpy as np
 if TYPE_CHECKING:  # networkx is the oracle's: imported where a graph is built, never by a robot host
     import networkx as nx
 
-    from transport.severance import Severance
-
 
 def package_version() -> dict:
     """The installed package version and, when known, the git commit of the source."""
@@ -63,6 +61,48 @@ def to_jsonable(obj: Any) -> Any:
     if isinstance(obj, float) and not np.isfinite(obj):
         return None
     return obj
+
+
+class Severed:
+    """The oracle's replay of the trace's ``cut``, ``restore``, ``partition`` and ``heal`` events.
+
+    Written apart from the product's rule (transport/severance.py, used by the radio and the charts) so that a
+    bug in one does not hide in both; tests/unit/test_graph_at.py compares them. A link a–b is severed while the
+    unordered pair is cut, or while a and b are in different partition groups (robots a partition does not list
+    are in a group of their own, 0); ``heal`` ends both. Immutable: ``after(rec)`` returns the state after a
+    tick's events.
+    """
+
+    __slots__ = ("cuts", "group")
+
+    def __init__(self, cuts: frozenset = frozenset(), group: dict | None = None):
+        self.cuts: frozenset = cuts
+        self.group: dict[int, int] = group or {}
+
+    def __bool__(self) -> bool:
+        return bool(self.cuts or self.group)
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, Severed) and (self.cuts, self.group) == (other.cuts, other.group)
+
+    __hash__ = None
+
+    def after(self, rec: dict) -> Severed:
+        cuts, group = self.cuts, self.group
+        for ev in rec.get("ev", ()):
+            if "cut" in ev:
+                cuts = cuts | {frozenset(p) for p in ev["cut"]}
+            elif "restore" in ev:
+                cuts = cuts - {frozenset(p) for p in ev["restore"]}
+            elif "partition" in ev:
+                group = {r: k + 1 for k, members in enumerate(ev["partition"]) for r in members}
+            elif "heal" in ev:
+                cuts, group = frozenset(), {}
+        return self if (cuts, group) == (self.cuts, self.group) else Severed(cuts, group)
+
+    def between(self, a: int, b: int) -> bool:
+        """Whether the link between robots ``a`` and ``b`` is severed (both directions)."""
+        return frozenset((a, b)) in self.cuts or self.group.get(a, 0) != self.group.get(b, 0)
 
 
 class ResultError(ValueError):
@@ -224,19 +264,14 @@ class Result:
             raise KeyError(f"the trace has no tick at or after {at}")
         return int(later[0])
 
-    def states(self) -> Iterator[tuple[dict, Severance]]:
+    def states(self) -> Iterator[tuple[dict, Severed]]:
         """Each tick record with the cuts and partition groups in force at it, in one streamed pass.
 
         ``graph_at(rec["t"], rec=rec, severed=severed)`` then builds the tick's graph without reading again.
         """
-        from transport.severance import Severance
-
-        links = Severance()
+        links = Severed()
         for rec in self.records():
-            if rec.get("ev"):  # a new object when events change it: what was yielded before stays as it was
-                links = links.copy()
-                for ev in rec["ev"]:
-                    links.apply(ev)
+            links = links.after(rec)
             yield rec, links
 
     def first_record(self) -> dict:
@@ -268,33 +303,27 @@ class Result:
         """Each robot's radio range (robots added during the run included)."""
         return {rid: r["range"] for rid, r in self.robots.items()}
 
-    def severed_at(self, tick: int) -> Severance:
+    def severed_at(self, tick: int) -> Severed:
         """Cut links and partition groups in force at ``tick``, replayed from the trace's events."""
-        from transport.severance import Severance
-
-        links = Severance()
+        links = Severed()
         for rec in self.records():
             if rec["t"] > tick:
                 break
-            for ev in rec.get("ev", ()):
-                links.apply(ev)
+            links = links.after(rec)
         return links
 
-    def last_state(self) -> tuple[dict, Severance]:
+    def last_state(self) -> tuple[dict, Severed]:
         """The last tick record and the cuts and partition groups in force at it, in one streamed pass."""
-        from transport.severance import Severance
-
-        links = Severance()
+        links = Severed()
         last = None
         for last in self.records():  # noqa: B007 — the loop keeps the last one
-            for ev in last.get("ev", ()):
-                links.apply(ev)
+            links = links.after(last)
         if last is None:
             raise KeyError("the trace has no tick")
         return last, links
 
     def graph_at(self, tick: int, directed: bool = False, rec: dict | None = None,
-                 severed: Severance | None = None) -> nx.Graph:
+                 severed: Severed | None = None) -> nx.Graph:
         """The true radio graph at ``tick``.
 
         Alive robots, links in range (mutual unless ``directed``: an edge a -> b when b is within a's range),
@@ -307,7 +336,7 @@ class Result:
         from scipy.spatial import cKDTree
 
         rec = self.record(tick) if rec is None else rec  # ``rec``, ``severed``: when the caller has them
-        links = self.severed_at(tick) if severed is None else severed  # transport/severance.py, as the radio
+        links = self.severed_at(tick) if severed is None else severed  # the oracle's own replay (Severed)
         ranges = self.ranges()
         ids = [row[0] for row in rec.get("pos", [])]
         pos = np.array([row[1:] for row in rec.get("pos", [])], dtype=float)
@@ -320,7 +349,7 @@ class Result:
         pairs = cKDTree(pos).query_pairs(float(r.max()) * (1 + 1e-9) + 1e-12, output_type="ndarray")
         edges = []
         if links and len(pairs):
-            pairs = pairs[~links.mask(np.array(ids)[pairs[:, 0]], np.array(ids)[pairs[:, 1]])]
+            pairs = pairs[[not links.between(ids[a], ids[b]) for a, b in pairs.tolist()]]
         for a, b in sorted(map(tuple, pairs.tolist())):
             d = np.linalg.norm(pos[b] - pos[a])
             if directed:

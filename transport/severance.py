@@ -4,8 +4,10 @@ A link between robots a and b is severed, in both directions, when the pair was 
 pair in either order, until ``restore`` or ``heal``) or when a and b are in different partition groups
 (``partition``: group k + 1 for the k-th listed group, group 0 for every robot listed nowhere; a new
 partition replaces the previous one; ``heal`` ends cuts and partition). The world's radio (world/radio.py)
-drops frames over a severed link as ``cut``; ``Result.graph_at`` and the charts replay the same actions from
-the trace's ``ev`` lists (``apply``) and leave severed links out. Numpy only: no networkx, no scipy.
+drops frames over a severed link as ``cut``; the charts replay the same actions from the trace's ``ev`` lists
+(``apply``) and leave severed links out. The oracle (``Result.graph_at``) keeps its own replay
+(``swarmactors.result.Severed``), compared with this one by tests/unit/test_graph_at.py, so that a bug in one
+does not hide in both. Numpy only: no networkx, no scipy.
 """
 
 from __future__ import annotations
