@@ -100,6 +100,19 @@ def read_credential(path: Path) -> tuple[str, str]:
     return user, password
 
 
+def _alt_names(names: list[str]) -> list:
+    """A certificate's subject alternative names: IP addresses as such, anything else as a DNS name."""
+    from cryptography import x509
+
+    alt = []
+    for name in names:
+        try:
+            alt.append(x509.IPAddress(ipaddress.ip_address(name)))
+        except ValueError:
+            alt.append(x509.DNSName(name))
+    return alt
+
+
 def ensure_files(directory: Path, names: list[str] = ()) -> Path:
     """Create the CA, the world's certificate and the credential in ``directory`` unless present."""
     from cryptography import x509
@@ -127,12 +140,7 @@ def ensure_files(directory: Path, names: list[str] = ()) -> Path:
           .serial_number(x509.random_serial_number()).not_valid_before(valid[0]).not_valid_after(valid[1])
           .add_extension(x509.BasicConstraints(ca=True, path_length=0), critical=True)
           .sign(ca_key, hashes.SHA256()))
-    alt = []
-    for name in ["world", "localhost", "127.0.0.1", *names]:
-        try:
-            alt.append(x509.IPAddress(ipaddress.ip_address(name)))
-        except ValueError:
-            alt.append(x509.DNSName(name))
+    alt = _alt_names(["world", "localhost", "127.0.0.1", *names])
     world_key = ec.generate_private_key(ec.SECP256R1())
     world = (x509.CertificateBuilder()
              .subject_name(x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, "world")])).issuer_name(ca_name)
@@ -173,12 +181,7 @@ def cluster_files(directory: Path, names: list[str] = ()) -> Path:
     ca = x509.load_pem_x509_certificate((directory / "ca.pem").read_bytes())
     ca_key = serialization.load_pem_private_key((directory / "ca.key").read_bytes(), password=None)
     now = datetime.datetime.now(datetime.timezone.utc)
-    alt = []
-    for name in [*CLUSTER_NAMES, *names]:
-        try:
-            alt.append(x509.IPAddress(ipaddress.ip_address(name)))
-        except ValueError:
-            alt.append(x509.DNSName(name))
+    alt = _alt_names([*CLUSTER_NAMES, *names])
     key = ec.generate_private_key(ec.SECP256R1())
     cert = (x509.CertificateBuilder()
             .subject_name(x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, "swarmactors cluster")]))
