@@ -3,6 +3,7 @@
 
     python benchmarks/lambda2_fig2.py [--quick] [--jobs 2] [--img docs/img] \
         [--out docs/img/lambda2-fig2-data.json]
+    python benchmarks/lambda2_fig2.py --large 50 100 --graphs 3 --jobs 2   # add K = 50, 100 to --out's runs
 
 Every point is a real run (lockstep, c = 1 tick, range 1, one L2 frame per robot per tick, per-receiver
 loss p): the three methods (PI1, PI2, Wave) on connected random geometric graphs
@@ -92,6 +93,17 @@ def jobs(quick: bool) -> list[dict]:
                     out.append({"K": k, "seed": seed, "method": method, "p": p, "drop": "drop",
                                 "ticks": 2 * ticks[method] if method != "pi2" else ticks[method]})
     return out
+
+
+def large_jobs(ks: list[int], graphs: int) -> list[dict]:
+    """The runs of ``--large``: K = ``ks`` only, every p, ``graphs`` graphs each, the default drop semantics.
+
+    Horizons: the full ones doubled for PI1 and the wave (their rate falls with K), PI2's as it is; the smallest
+    K first, so an interrupted run has whole points of the smaller swarm.
+    """
+    return [{"K": k, "seed": seed, "method": method, "p": p, "drop": "drop",
+             "ticks": 2 * TICKS[method] if method != "pi2" else TICKS[method]}
+            for k in sorted(ks) for seed in range(1, graphs + 1) for p in PS for method in ("pi1", "wave", "pi2")]
 
 
 def summarise(rows: list[dict]) -> list[dict]:
@@ -196,20 +208,40 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--img", type=Path, default=ROOT / "docs" / "img")
     ap.add_argument("--out", type=Path, default=ROOT / "docs" / "img" / "lambda2-fig2-data.json")
+    ap.add_argument("--large", type=int, nargs="+", metavar="K",
+                    help="run only these K (every p, --graphs graphs) and add them to the runs already in --out "
+                         "(replacing that K's old runs); an interrupted run resumes from OUT.partial.jsonl")
+    ap.add_argument("--graphs", type=int, default=3, help="graphs per point with --large")
     args = ap.parse_args()
-    todo = jobs(args.quick)
+    kept, done = [], []
+    partial = args.out.with_suffix(".partial.jsonl")
+    if args.large:
+        todo = large_jobs(args.large, args.graphs)
+        if args.out.exists():
+            kept = [r for r in json.loads(args.out.read_text())["runs"] if r["K"] not in args.large]
+        if partial.exists():
+            done = [json.loads(line) for line in partial.read_text().splitlines() if line.strip()]
+            key = lambda r: (r["K"], r["seed"], r["method"], r["p"], r["drop"], r["ticks"])  # noqa: E731
+            have = {key(r) for r in done}
+            todo = [j for j in todo if key(j) not in have]
+    else:
+        todo = jobs(args.quick)
     t0 = time.time()
-    with ProcessPoolExecutor(args.jobs) as pool:
-        rows = []
+    with ProcessPoolExecutor(args.jobs) as pool, open(partial, "a") as log:
+        rows = list(done)
         for i, row in enumerate(pool.map(one, todo), 1):
             rows.append(row)
-            if i % 20 == 0:
-                print(f"{i}/{len(todo)} runs, {time.time() - t0:.0f} s", flush=True)
+            log.write(json.dumps(row) + "\n")
+            log.flush()
+            print(f"{i}/{len(todo)} runs, {time.time() - t0:.0f} s: K={row['K']} {row['method']} p={row['p']} "
+                  f"graph {row['seed']}: settled {row['settled']}, final e {row['final_error']}", flush=True)
+    rows = kept + rows
     summary = summarise(rows)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps({"summary": summary, "runs": rows, "wall_s": round(time.time() - t0, 1)},
                                    indent=1))
     plot(rows, summary, args.img)
+    partial.unlink(missing_ok=True)
     for s in summary:
         print(json.dumps({k: (round(v, 3) if isinstance(v, float) else v) for k, v in s.items()}))
 

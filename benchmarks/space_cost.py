@@ -92,7 +92,7 @@ def tick_cost(config: str, spec: dict, trace: list[np.ndarray], radius: float) -
             occluded = rules.hidden_by_sender(pos, reach)  # as World.begin does
             if config == "bodies":
                 rules.collisions(t, pos, robots)
-        medium.decide(t, frames, reach, robots.alive, pos, robots.range, occluded)
+        medium.decide(t, frames, reach, robots.alive, pos, robots.range, occluded)  # (deliveries, drops, overheard)
         robots.vel[:] = vel[t]
         before = robots.pos.copy()
         integrate(robots.pos, robots.heading, robots.vel, robots.speed, robots.turn_rate, robots.alive, 1.0, None)

@@ -76,7 +76,7 @@ def write_charts(result: Result, out_dir: Path, field: str | None = None) -> lis
 def _digest(result: Result) -> tuple[list[dict], list[dict], dict[int, dict]]:
     """One pass over the trace: per-tick counts, the records of about ``MAX_COLUMNS`` sampled ticks, statuses.
 
-    Counts are ``{"t", "n" (robots alive), "sent", "del", "drop": {cause: count}}``; the sampled records keep
+    Counts are ``{"t", "n" (robots alive), "sent", "del", "ovh", "drop": {cause: count}}``; the sampled records keep
     ``t`` and ``pos`` (every k-th tick, k from the run's tick count, and always the last).
     """
     every = max(1, -(-int(result.data.get("ticks") or 1) // MAX_COLUMNS))
@@ -89,7 +89,7 @@ def _digest(result: Result) -> tuple[list[dict], list[dict], dict[int, dict]]:
         for d in rec.get("drop", ()):
             drops[d[3]] = drops.get(d[3], 0) + 1
         counts.append({"t": rec["t"], "n": len(rec.get("pos", ())), "sent": len(rec.get("sent", ())),
-                       "del": len(rec.get("del", ())), "drop": drops})
+                       "del": len(rec.get("del", ())), "ovh": len(rec.get("ovh", ())), "drop": drops})
         _add_status(history, rec)
         last = {"t": rec["t"], "pos": rec.get("pos", [])}
         if k % every == 0:
@@ -160,12 +160,15 @@ def messages(counts: list[dict], path: Path, name: str) -> Path:
     alive = np.array([max(c["n"], 1) for c in counts], dtype=float)
     sent = np.array([c["sent"] for c in counts], dtype=float)
     delivered = np.array([c["del"] for c in counts], dtype=float)
+    overheard = np.array([c.get("ovh", 0) for c in counts], dtype=float)
     causes = sorted({cause for c in counts for cause in c["drop"]})
     drops = {cause: np.array([c["drop"].get(cause, 0) for c in counts]) for cause in causes}
     with style() as plt:
         fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 4.6), sharex=True)
         a1.plot(ticks, sent / alive, color=PALETTE[0], lw=1.2, label="frames sent")
         a1.plot(ticks, delivered / alive, color=PALETTE[2], lw=1.2, label="deliveries")
+        if overheard.any():  # copies to excluded robots the radio carried (world/radio.py)
+            a1.plot(ticks, overheard / alive, color=PALETTE[2], lw=1.0, ls=":", label="overheard")
         a1.set_ylabel("per alive robot\nper tick")
         a1.set_title(f"{name}: messages ({int(sent.sum())} frames, {int(delivered.sum())} deliveries)")
         a1.legend(loc="best")

@@ -7,9 +7,10 @@ Two tables, both built from the trace (``trace.msgpack``) beside ``result.json``
   The trace records positions, not headings: ``heading`` is derived (``headings``), exact where a robot's
   last recorded move was a whole step, as docs/analysis.md says.
 * **frames**: one row per frame sent and per (frame, receiver) outcome, in each tick deliveries, then
-  transmissions, then drops: ``tick, src, seq, kind, dst, size,
+  overheard copies, then transmissions, then drops: ``tick, src, seq, kind, dst, size,
   outcome, sent_tick``. ``outcome`` is ``sent`` (the transmission, ``dst`` empty for a broadcast),
-  ``delivered`` (``tick`` is the delivery tick, ``sent_tick`` the send tick) or the drop cause (``range``,
+  ``delivered`` (``tick`` is the delivery tick, ``sent_tick`` the send tick), ``overheard`` (a copy that
+  reached a robot on the broadcast's exclude list, which discarded it) or the drop cause (``range``,
   ``loss``, ``cut``, ``bandwidth``, ``dead``).
 
 Formats: ``csv`` (``poses.csv``, ``frames.csv``), ``json`` (``poses.json``, ``frames.json``: lists of
@@ -160,6 +161,10 @@ def iter_frame_rows(records: Iterable[dict], within: int | None = None) -> Itera
             kind, size, _ = meta.get((src, seq), (None, None, None))
             yield {"tick": t, "src": src, "seq": seq, "kind": kind, "dst": dst, "size": size,
                    "outcome": "delivered", "sent_tick": sent_tick}
+        for src, seq, dst, sent_tick in rec.get("ovh", ()):
+            kind, size, _ = meta.get((src, seq), (None, None, None))
+            yield {"tick": t, "src": src, "seq": seq, "kind": kind, "dst": dst, "size": size,
+                   "outcome": "overheard", "sent_tick": sent_tick}
         for src, seq, kind, dst, size in rec.get("sent", ()):
             meta[src, seq] = (kind, size, t)
             yield {"tick": t, "src": src, "seq": seq, "kind": kind, "dst": dst, "size": size,

@@ -173,7 +173,7 @@ class Result:
         raise KeyError(f"no behaviour reports as {name!r} in this scenario")
 
     def frame_counts(self, rid: int) -> dict:
-        """Robot ``rid``'s frame counters: sent, received, dropped by cause (as sender), from result.json."""
+        """Robot ``rid``'s frame counters from result.json: sent, received, overheard, dropped by cause (as sender)."""
         return self.data["world"]["per_robot"][str(rid)]
 
     def frames(self, rid: int | None = None):

@@ -112,6 +112,8 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "loss_good": (_NUM, None, _probability),
         "loss_bad": (_NUM, None, _probability),
         "rab": (bool, False, None),  # every delivered frame carries its range and bearing (frame.rab)
+        # excluded robots' copies of a broadcast are carried and recorded as overheard, or ("filter") not sent
+        "exclude": (str, "overheard", _one_of("overheard", "filter")),
     },
     "world": {
         "dims": (int, 2, _one_of(2, 3)),

@@ -113,6 +113,7 @@ class Scene:
         self.dropped = {c: 0 for c in DROP_CAUSES}
         self.sent = 0
         self.deliveries = 0
+        self.overheard = 0  # copies robots on a broadcast's exclude list overheard (world/radio.py)
         self.recent: deque = deque(maxlen=RECENT_TICKS)  # tick records with frames, newest last
         self.logs: dict[int, list[str]] = {}
         self.finished = False
@@ -135,6 +136,8 @@ class Scene:
             self.sent += len(sent)
         if delivered:
             self.deliveries += len(delivered)
+        if rec.get("ovh"):
+            self.overheard += len(rec["ovh"])
         if drops:
             for d in drops:
                 self.dropped[d[3]] = self.dropped.get(d[3], 0) + 1
@@ -231,6 +234,7 @@ class Scene:
             "dropped": self.dropped,
             "sent": self.sent,
             "deliveries": self.deliveries if self.frames_available else None,
+            "overheard": self.overheard if self.frames_available else None,
             "activity": self.activity(),
             "events": to_jsonable(self.events[-EVENTS_SHOWN:]),
             "frames_available": self.frames_available,
@@ -293,13 +297,19 @@ class Scene:
                 kinds[(src, seq)] = kind
                 if src == rid:
                     sent[(src, seq)] = {"t": t, "seq": seq, "kind": kind, "dst": dst, "size": size,
-                                        "delivered": [], "dropped": []}
+                                        "delivered": [], "overheard": [], "dropped": []}
             for src, seq, dst, sent_tick in rec.get("del", ()):
                 if (src, seq) in sent:
                     sent[(src, seq)]["delivered"].append([dst, t])
                 if dst == rid:
                     received.append({"t": t, "src": src, "seq": seq, "kind": kinds.get((src, seq)),
                                      "sent": sent_tick, "fate": "delivered"})
+            for src, seq, dst, sent_tick in rec.get("ovh", ()):
+                if (src, seq) in sent:
+                    sent[(src, seq)]["overheard"].append([dst, t])
+                if dst == rid:
+                    received.append({"t": t, "src": src, "seq": seq, "kind": kinds.get((src, seq)),
+                                     "sent": sent_tick, "fate": "overheard (excluded: discarded)"})
             for src, seq, dst, cause in rec.get("drop", ()):
                 if (src, seq) in sent:
                     sent[(src, seq)]["dropped"].append([dst, cause, t])

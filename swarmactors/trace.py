@@ -3,11 +3,13 @@
 A trace is a msgpack stream (``trace.msgpack``): a header map, one map per
 tick, and a footer map. Schema (docs/trace.md):
 
-* header: ``{"trace": "swarmactors", "version": 1, "run_id", "clock", "seed",
+* header: ``{"trace": "swarmactors", "version": 2, "run_id", "clock", "seed",
   "pos_digits", "scenario"}``
 * tick: ``{"t": tick, "pos": [[id, x, y(, z)], ...] (alive robots, rounded),
   "sent": [[src, seq, kind, dst, size], ...], "del": [[src, seq, dst,
-  sent_tick], ...], "drop": [[src, seq, dst, cause], ...], "status": {id:
+  sent_tick], ...], "ovh": [[src, seq, dst, sent_tick], ...] (copies a robot
+  on a broadcast's exclude list overheard: version 2), "drop": [[src, seq,
+  dst, cause], ...], "status": {id:
   {field: value}} (changes only), "ev": [event, ...], "mal": [reason, ...]}``
   (empty lists are left out);
 * footer: ``{"end": true, "ticks", "trace_hash", "header_hash"}``.
@@ -35,9 +37,10 @@ import msgpack
 from transport import pack
 from transport.rows import IntRows
 
-VERSION = 1
+VERSION = 2  # 2: tick records may hold "ovh" (overheard copies); version 1 traces are read as they are
+READABLE = (1, 2)
 MODES = ("off", "summary", "full")  # run.trace: what the trace file holds (the hash is the same in every mode)
-SUMMARISED = ("del", "drop")  # the per-(frame, receiver) lists a summary trace replaces by counts
+SUMMARISED = ("del", "ovh", "drop")  # the per-(frame, receiver) lists a summary trace replaces by counts
 FLUSH_S = 1.0  # the trace file is flushed at least this often (seconds)
 ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"  # a Zstandard frame's first bytes
 
@@ -54,7 +57,7 @@ _KEYS = {"sent": itemgetter(0, 1), "drop": itemgetter(0, 1, 2), "cmd": itemgette
 def canonical(rec: dict) -> dict:
     """Sort a tick record's lists and maps so that it does not depend on processing order."""
     out = {"t": rec["t"]}
-    for key in ("pos", "sent", "del", "drop", "cmd"):
+    for key in ("pos", "sent", "del", "ovh", "drop", "cmd"):
         if rec.get(key):
             out[key] = sorted(rec[key], key=_KEYS[key]) if key in _KEYS else rec[key]
     if rec.get("status"):
@@ -75,7 +78,7 @@ _NUMBER = (int, float)
 
 def record_problem(rec: dict) -> str | None:
     """What is wrong with the shape of a tick record (None: nothing); docs/trace.md is the schema."""
-    rows = {"pos": 3, "sent": 5, "del": 4, "drop": 4, "cmd": 3}
+    rows = {"pos": 3, "sent": 5, "del": 4, "ovh": 4, "drop": 4, "cmd": 3}
     for key, width in rows.items():
         value = rec.get(key, [])
         if not isinstance(value, list):
@@ -109,13 +112,16 @@ def pack_record(rec: dict) -> bytes:
 
 
 def summarise(rec: dict) -> dict:
-    """A canonical record as a summary trace holds it: ``del`` and ``drop`` replaced by counts.
+    """A canonical record as a summary trace holds it: ``del``, ``ovh`` and ``drop`` replaced by counts.
 
-    ``ndel`` is the number of deliveries, ``ndrop`` the drops per cause (sorted by cause).
+    ``ndel`` is the number of deliveries, ``novh`` of overheard copies, ``ndrop`` the drops per cause (sorted by
+    cause).
     """
     out = {k: v for k, v in rec.items() if k not in SUMMARISED}
     if rec.get("del"):
         out["ndel"] = len(rec["del"])
+    if rec.get("ovh"):
+        out["novh"] = len(rec["ovh"])
     if rec.get("drop"):
         causes: dict[str, int] = {}
         for row in rec["drop"]:
@@ -321,8 +327,9 @@ def iter_offsets(path: str | Path, stream=None, start: int = 0) -> Iterator[tupl
             if first:
                 if obj.get("trace") != "swarmactors":
                     raise TraceError(f"{path}: byte offset 0: not a swarmactors trace (no header)")
-                if obj.get("version") != VERSION:
-                    raise TraceError(f"{path}: trace version {obj.get('version')!r}, this reader knows {VERSION}")
+                if obj.get("version") not in READABLE:
+                    raise TraceError(f"{path}: trace version {obj.get('version')!r}, this reader knows "
+                                     f"{', '.join(map(str, READABLE))}")
                 first = False
             elif not obj.get("end"):
                 if not isinstance(obj.get("t"), int):

@@ -27,15 +27,15 @@ SCENARIO_PINS = {
     "biconnected-removal.toml": "454381525010a7b6644fea7a3a7ee462",
     "biconnectivity-check.toml": "336f63f143200f834e4fab2102420c15",
     "cbaa.toml": "da5540292cc58ef9571fac36f37345e6",
-    "flooding.toml": "0e3ad8f9bd65636fa622d3e3bbc9e90f",
+    "flooding.toml": "e69653011254db0fc4f743d59fa56068",  # issue 23: overheard copies
     "lambda2.toml": "a4c95f6c6a3b3fce0b233ecc21cb8ea8",  # issue 17
     "leader-follower-experiment.toml": "e703cfb26febea7a2012d5627700558e",  # issue 20
     "leader-follower.toml": "424c80217845bb0ce2d9e48db7d91b29",  # issue 20
     "leader-follower-prior.toml": "4d9a73aa5c15d1035943ac02c7c4da29",  # issue 20
     "ground-and-flying.toml": "1a475b9f3bfbd6a2db826bd055a835b2",  # issue 14
-    "maze-flood.toml": "1f0ccd0251fecf9d90283cb287b8349a",  # issue 14
+    "maze-flood.toml": "2a002ae316fc01b8af45e4682c3fbf56",  # issue 14; issue 23: overheard copies
     "roles-aat.toml": "84e75f28cd9855bc0ecee67eb2b85352",
-    "roles-patrol.toml": "40afe03e2c9d87a774380ebf7517d834",
+    "roles-patrol.toml": "10ae36cee290b5991a0c819848bc70f8",  # issue 23: overheard copies
     "secs-prominence.toml": "0bc067f2ad73d4a08a215790ef056a8f",  # issue 18
     "stigmergy.toml": "df9a3f0a12473e58a660537ee6ade53e",
 }
@@ -51,20 +51,20 @@ CASE_PINS = {
     "cbaa/line-6-tasks-4": "f9543980b59f75af9d5afed32d7f4b9d",
     "cbaa/ring-8-tasks-10": "d7b65fb83f4956c866916a7fc85d2692",
     "cbaa/rgg-15-s1-tasks-8": "a8ad0711e4580e23ed9612faf999bf7f",
-    "flooding/ring-8": "11368f54f8eb23d42ed2517b74e6c212",
-    "flooding/comb-9": "939381ee80f49afc9ee1eae8f625d1b9",
-    "flooding/rgg-20-s1": "e77f95691e729d29446986b355d78421",
-    "flooding/rgg-20-s1-loss-0.2": "eeee4e48dc65490a7301525738599cf9",
-    "flooding/line-8-killed-relay": "e1f8a7490962231401b02f4918b64bb8",
+    "flooding/ring-8": "2ff14385e930fb3dd40e949709064776",  # issue 23: overheard copies
+    "flooding/comb-9": "532bdd3c4ca75c32959e016601df2c06",  # issue 23: overheard copies
+    "flooding/rgg-20-s1": "c06a320c757b7a55d21ad5a49f9a7a87",  # issue 23: overheard copies
+    "flooding/rgg-20-s1-loss-0.2": "f6c65ea77a7b26a578c0c597d924a217",  # issue 23: overheard copies
+    "flooding/line-8-killed-relay": "e4647bc3132dd20e49215c474df2cbfb",  # issue 23: overheard copies
     "lambda2/ring-8": "6e73e6fb91cf5980235635b58ad834e9",  # issue 17
     "lambda2/rgg-10-s1": "0aad851e2878c9d0f98a0412066df846",  # issue 17
     "lambda2/two-rings-6": "2477edfa3dd826279e67bd4f85cf15be",  # issue 17
     "lambda2/rgg-10-s2-loss-0.1": "b271c1c74ea8329aeea0672351dcba69",  # issue 17
     "leader_follower/random-4-s1": "d1463a6987c7c1a1493ac465754a2106",  # issue 20
     "leader_follower/random-6-s6-noise-0.005": "8e6a5c2216126395948eaa3657f4aee2",  # issue 20
-    "roles/patrol-10-s1": "6f80659879f356e28b7a34146d416650",
-    "roles/patrol-20-s3": "ba7d21f9e85a205e5efff2c25361f9c4",
-    "roles/patrol-10-s2-loss-0.1": "e29a4156897d3edea8964f84bc4e851b",
+    "roles/patrol-10-s1": "da3bfff1040dd8dc00c8beda159ee585",  # issue 23: overheard copies
+    "roles/patrol-20-s3": "5c1ddebd2a3764cc5cbdfd925c9436f7",  # issue 23: overheard copies
+    "roles/patrol-10-s2-loss-0.1": "59225d516179dde3b3b0a161e761373f",  # issue 23: overheard copies
     "secs/n5-d240-3r2": "0bc067f2ad73d4a08a215790ef056a8f",  # issue 18
     "secs/n5-d240-3r2-loss-0.1": "941c4678eace6a873d8afc4677579aa1",  # issue 18
     "stigmergy/ring-10": "e47282caa9d1d1db51f657b644fdc888",
@@ -103,3 +103,16 @@ def test_conformance_case_trace_hash_is_pinned(case_name, tmp_path):
     determinism = [o for o in result.outcomes if o["name"] == "determinism"]
     assert determinism and determinism[0]["passed"], determinism
     assert result.trace_hash == CASE_PINS[case_name]
+
+
+# Before issue 23 excluded robots were no receivers at all; ``radio.exclude = "filter"`` keeps that rule exactly.
+FILTER_PINS = {
+    "flooding.toml": "0e3ad8f9bd65636fa622d3e3bbc9e90f",
+    "roles-patrol.toml": "40afe03e2c9d87a774380ebf7517d834",
+}
+
+
+@pytest.mark.parametrize("name", sorted(FILTER_PINS))
+def test_the_older_exclude_rule_gives_the_older_hashes(name, tmp_path):
+    result = run(SCENARIOS / name, out=tmp_path, overrides=['radio.exclude="filter"'])
+    assert result["trace_hash"] == FILTER_PINS[name]

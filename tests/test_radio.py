@@ -147,3 +147,61 @@ def test_sensing_noise_is_seeded_and_bounded(run):
     assert len(errors) > 10
     assert 0.0 < max(errors) < 0.05 * 6  # noisy, within six sigma
     assert 0.01 < float(np.mean(errors)) < 0.15  # Rayleigh mean of sigma 0.05 is about 0.063
+
+
+def flood_scenario(clock="lockstep", loss=0.0, exclude="overheard") -> dict:
+    return {
+        "run": {"name": "overheard", "seed": 7, "ticks": 12, "clock": clock,
+                "dt": 1.0 if clock == "lockstep" else 0.05},
+        "radio": {"range": 1.0, "latency": 1, "latency_s": 0.01, "loss": loss, "exclude": exclude},
+        "world": {"bounds": [[0.0, 0.0], [4.0, 4.0]]},
+        "robots": [{"count": 30, "placement": "uniform", "connected": True,
+                    "behaviors": [{"use": "flooding", "origin": 0, "at": 2, "expiry": 6}]}],
+    }
+
+
+def copies(result, key: str) -> dict[tuple[int, int], set[int]]:
+    out = defaultdict(set)
+    for rec in result.trace:
+        for src, seq, dst, _sent in rec.get(key, []):
+            out[(src, seq)].add(dst)
+    return out
+
+
+@pytest.mark.parametrize("loss", [0.0, 0.3])
+def test_excluded_robots_overhear_broadcasts_which_are_recorded_counted_and_never_handed_over(run, loss):
+    """A forwarded flood excludes the robot it came from (Kobayashi Sec. III-C); the radio still carries that copy.
+
+    Each frame's receivers in range split into delivered, overheard and dropped, the overheard ones are exactly
+    what ``exclude = "filter"`` leaves out, and the behaviours see the same frames either way.
+    """
+    heard = run(flood_scenario(loss=loss), name="overheard")
+    filtered = run(flood_scenario(loss=loss, exclude="filter"), name="filtered")
+    assert copies(heard, "del") == copies(filtered, "del")  # the behaviours got the same frames
+    assert not copies(filtered, "ovh")
+    ovh = copies(heard, "ovh")
+    sent, _, dropped = deliveries_by_frame(heard)
+    _, _, dropped_filtered = deliveries_by_frame(filtered)
+    delivered = copies(heard, "del")
+    for (src, seq), t in sent.items():
+        in_range = in_range_sets(heard, t)[src]
+        fates = [delivered[(src, seq)], ovh[(src, seq)], set(dropped[(src, seq)])]
+        assert set().union(*fates) == in_range, (src, seq)
+        assert sum(len(f) for f in fates) == len(in_range)  # one fate per copy
+        excluded_lost = set(dropped[(src, seq)]) - set(dropped_filtered[(src, seq)])
+        if loss == 0.0:
+            assert not dropped[(src, seq)]
+        assert all(dropped[(src, seq)][d] == "loss" for d in excluded_lost)
+    total = sum(len(v) for v in ovh.values())
+    assert total >= 5
+    world = heard["world"]
+    assert world["overheard"] == total and filtered["world"]["overheard"] == 0
+    assert sum(heard.frame_counts(r)["overheard"] for r in range(30)) == total
+
+
+def test_overheard_copies_in_realtime(run):
+    result = run(flood_scenario(clock="realtime"), name="rt")
+    ovh = copies(result, "ovh")
+    delivered = copies(result, "del")
+    assert sum(len(v) for v in ovh.values()) == result["world"]["overheard"] > 0
+    assert all(not (ovh[k] & delivered[k]) for k in ovh)

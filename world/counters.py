@@ -1,7 +1,7 @@
 """What the world counts and records: frame counters by robot and by drop cause, and each tick's record.
 
 ``Counters`` is what result.json reports; ``TickRecord`` is the trace record of the tick being built
-(docs/trace.md: ``sent``, ``del``, ``drop``, ``mal``, ``ev``, ``status``, ``pos``). Both only collect
+(docs/trace.md: ``sent``, ``del``, ``ovh``, ``drop``, ``mal``, ``ev``, ``status``, ``pos``). Both only collect
 values; they decide nothing.
 """
 
@@ -26,13 +26,19 @@ SAMPLES_PER_TICK = 20  # reasons kept in a tick's trace record and logged, per c
 
 @dataclass
 class Counters:
-    """Frames sent, delivered and dropped (by cause), in total and per robot."""
+    """Frames sent, delivered, overheard and dropped (by cause), in total and per robot.
+
+    ``overheard`` counts copies of broadcasts that reached a robot on the frame's ``exclude`` list (the radio
+    carried them; the robot discarded them: world/radio.py); ``delivered`` counts the copies handed over.
+    """
 
     sent: int = 0
     delivered: int = 0
+    overheard: int = 0
     dropped: dict[str, int] = field(default_factory=lambda: dict.fromkeys(DROP_CAUSES, 0))
     sent_by: dict[int, int] = field(default_factory=lambda: defaultdict(int))
     received_by: dict[int, int] = field(default_factory=lambda: defaultdict(int))
+    overheard_by: dict[int, int] = field(default_factory=lambda: defaultdict(int))
     dropped_by: dict[int, dict[str, int]] = field(default_factory=lambda: defaultdict(lambda: defaultdict(int)))
     malformed: list[str] = field(default_factory=list)  # first reasons, for the result
     refused: dict[str, int] = field(default_factory=lambda: defaultdict(int))  # refused requests by named cause
@@ -58,6 +64,7 @@ class Counters:
         return {
             "frames_sent": self.sent,
             "deliveries": self.delivered,
+            "overheard": self.overheard,
             "dropped": dict(self.dropped),
             "dropped_total": sum(self.dropped.values()),
             "malformed_examples": self.malformed[:20],
@@ -66,7 +73,8 @@ class Counters:
 
     def per_robot(self, n: int) -> dict[int, dict]:
         return {rid: {"sent": self.sent_by.get(rid, 0), "received": self.received_by.get(rid, 0),
-                      "dropped": dict(self.dropped_by.get(rid, {}))} for rid in range(n)}
+                      "overheard": self.overheard_by.get(rid, 0), "dropped": dict(self.dropped_by.get(rid, {}))}
+                for rid in range(n)}
 
 
 class TickRecord:
@@ -152,16 +160,24 @@ class TickRecord:
 
     def delivered_arrays(self, src: np.ndarray, seq: np.ndarray, dst: np.ndarray, sent_tick: np.ndarray) -> None:
         """Deliveries as arrays, in the order given (the trace's ``del`` order)."""
-        if not len(src):
-            return
-        c = self.counters
-        c.delivered += len(src)
-        c.add_to(c.received_by, dst)
+        if len(src):
+            self.counters.delivered += len(src)
+            self._rows("del", self.counters.received_by, src, seq, dst, sent_tick)
+
+    def overheard_arrays(self, src: np.ndarray, seq: np.ndarray, dst: np.ndarray, sent_tick: np.ndarray) -> None:
+        """Overheard copies as arrays, in the order given (the trace's ``ovh`` order)."""
+        if len(src):
+            self.counters.overheard += len(src)
+            self._rows("ovh", self.counters.overheard_by, src, seq, dst, sent_tick)
+
+    def _rows(self, key: str, per_robot: dict, src, seq, dst, sent_tick) -> None:
+        """Append ``[src, seq, dst, sent_tick]`` rows to the record's list ``key``; count them per receiver."""
+        self.counters.add_to(per_robot, dst)
         rows = IntRows(np.column_stack([src, seq, dst, sent_tick]))  # packs like the list of rows (transport/rows.py)
-        have = self.rec.get("del")
+        have = self.rec.get(key)
         if have:
             rows = (have if isinstance(have, IntRows) else IntRows(np.reshape(have, (-1, 4)))).extend(rows)
-        self.rec["del"] = rows
+        self.rec[key] = rows
 
     def dead(self, src: int, seq: int, dst: int) -> None:
         """A frame whose receiver died while it was in the air."""
@@ -171,8 +187,16 @@ class TickRecord:
     def delivered(self, src: int, seq: int, dst: int, sent_tick: int) -> None:
         self.counters.delivered += 1
         self.counters.received_by[dst] += 1
-        rows = self.rec.setdefault("del", [])
+        self._row("del", [src, seq, dst, sent_tick])
+
+    def overheard(self, src: int, seq: int, dst: int, sent_tick: int) -> None:
+        self.counters.overheard += 1
+        self.counters.overheard_by[dst] += 1
+        self._row("ovh", [src, seq, dst, sent_tick])
+
+    def _row(self, key: str, row: list[int]) -> None:
+        rows = self.rec.setdefault(key, [])
         if isinstance(rows, IntRows):
-            self.rec["del"] = rows.extend([[src, seq, dst, sent_tick]])
+            self.rec[key] = rows.extend([row])
         else:
-            rows.append([src, seq, dst, sent_tick])
+            rows.append(row)

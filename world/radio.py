@@ -5,9 +5,15 @@ at the send tick:
 
 * range - a disk of the *transmitter's* radius, so heterogeneous ranges give
   directed links; a broadcast reaches every alive robot in range except the
-  sender and the frame's ``exclude`` list, an addressed frame only its
-  destination and only if in range (else dropped as ``range``); both by the
-  rule of world/sensing.py (squared distance <= range * range);
+  sender, an addressed frame only its destination and only if in range (else
+  dropped as ``range``); both by the rule of world/sensing.py (squared
+  distance <= range * range);
+* exclusion - a broadcast's ``exclude`` list names robots that discard it: as a
+  real radio, the world still carries their copies through every rule below
+  and records a copy that arrives as *overheard* (trace ``ovh``, counted, never
+  handed to the behaviour); ``radio.exclude = "filter"`` is the older rule
+  where excluded robots are no candidates at all (neither heard nor dropped);
+  addressed frames are point-to-point either way (the MAC filters them);
 * cuts and partitions - a frame over a cut link or between partition groups is
   dropped as ``cut``;
 * occlusion - with ``radio.occlusion``, a frame to a receiver in range that an
@@ -69,6 +75,7 @@ class RadioConfig:
     loss_good: float = 0.0
     loss_bad: float = 1.0
     rab: bool = False  # frames carry the receiver's range and bearing (world/situated.py)
+    exclude: str = "overheard"  # excluded robots' copies are carried and recorded as overheard; or "filter"
 
     @classmethod
     def from_dict(cls, data: dict) -> RadioConfig:
@@ -97,8 +104,9 @@ class Outgoing:
 class Decision:
     """The outcome of a batch: for pair k, frame ``frames[frame[k]]`` and receiver ``dst[k]``.
 
-    ``cause[k]`` is -1 for a delivery, else an index into ``DROP_CAUSES``; ``src`` and ``seq`` are the
-    frames' headers (one entry per frame of the batch).
+    ``cause[k]`` is -1 for a copy that arrives, else an index into ``DROP_CAUSES``; ``overheard[k]`` marks a
+    copy to a robot on the frame's ``exclude`` list (one that arrives is overheard, not delivered); ``src`` and
+    ``seq`` are the frames' headers (one entry per frame of the batch).
     """
 
     frame: np.ndarray
@@ -106,10 +114,17 @@ class Decision:
     cause: np.ndarray
     src: np.ndarray
     seq: np.ndarray
+    overheard: np.ndarray
 
     def only(self, mask: np.ndarray) -> Decision:
         """The pairs where ``mask`` holds."""
-        return Decision(self.frame[mask], self.dst[mask], self.cause[mask], self.src, self.seq)
+        return Decision(self.frame[mask], self.dst[mask], self.cause[mask], self.src, self.seq,
+                        self.overheard[mask])
+
+    @property
+    def delivered(self) -> np.ndarray:
+        """Pairs handed to their receiver: arrived and not excluded."""
+        return (self.cause < 0) & ~self.overheard
 
 
 def _pairs(indptr: np.ndarray, rows: np.ndarray, frame_ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -175,11 +190,12 @@ class Medium:
         positions: np.ndarray,
         ranges: np.ndarray,
         occluded: dict[int, np.ndarray] | None = None,
-    ) -> tuple[list[tuple], list[tuple[int, int, int, str, str]]]:
+    ) -> tuple[list[tuple], list[tuple[int, int, int, str, str]], list[tuple]]:
         """``decide_batch`` with reach as ``{src: sorted ids}`` and results as tuples.
 
         ``occluded[src]``, for a sender an obstacle cuts off from some of its reach, is ``(heard, hidden)``.
-        A delivery is ``(receiver, src, seq, frame, tick)``; a drop is ``(src, seq, dst, kind, cause)``.
+        A delivery is ``(receiver, src, seq, frame, tick)``; a drop is ``(src, seq, dst, kind, cause)``; an
+        overheard copy is shaped like a delivery. Returns ``(deliveries, drops, overheard)``.
         """
         n = len(alive)
         rows = dict(in_range)
@@ -194,14 +210,15 @@ class Medium:
             hidden = np.array([j in hidden_sets.get(i, ()) for i, j in zip(owners, table.nbrs.tolist(), strict=True)],
                               dtype=bool)
         out = self.decide_batch(tick, frames, table, alive, positions, ranges, hidden)
-        deliveries, drops = [], []
-        for k, d, c in zip(out.frame.tolist(), out.dst.tolist(), out.cause.tolist(), strict=True):
+        deliveries, drops, overheard = [], [], []
+        for k, d, c, o in zip(out.frame.tolist(), out.dst.tolist(), out.cause.tolist(), out.overheard.tolist(),
+                              strict=True):
             f = frames[k]
-            if c < 0:
-                deliveries.append((d, f.src, f.seq, f, tick))
-            else:
+            if c >= 0:
                 drops.append((f.src, f.seq, d, f.kind, DROP_CAUSES[c]))
-        return deliveries, drops
+            else:
+                (overheard if o else deliveries).append((d, f.src, f.seq, f, tick))
+        return deliveries, drops, overheard
 
     def decide_batch(
         self,
@@ -217,7 +234,8 @@ class Medium:
 
         ``table`` holds each alive robot's reach at ``tick`` (world/sensing.py); ``hidden``, aligned with
         ``table.nbrs``, marks the links an obstacle blocks (None: none). In order: a broadcast's candidates
-        are its sender's reach minus its ``exclude`` list, the hidden ones dropped as ``occluded``; an
+        are its sender's reach (its ``exclude`` list's copies marked ``overheard``, or left out with
+        ``exclude = "filter"``), the hidden ones dropped as ``occluded``; an
         addressed frame's only candidate is its destination, dropped as ``dead`` (no such robot, or dead),
         ``range`` (not in the sender's reach: the broadcast's rule) or ``occluded``; every frame is charged
         to its sender's bandwidth budget for the tick, in sending order, and the candidates of a frame past
@@ -232,68 +250,78 @@ class Medium:
         src = np.fromiter((f.src for f in frames), np.int64, nf)
         seq = np.fromiter((f.seq for f in frames), np.int64, nf)
         bcast = np.fromiter((f.dst is None for f in frames), bool, nf)
-        out_f: list[np.ndarray] = []  # early drops: (frame, dst, cause)
+        out_f: list[np.ndarray] = []  # early drops: (frame, dst, cause, overheard)
         out_d: list[np.ndarray] = []
         out_c: list[np.ndarray] = []
+        out_o: list[np.ndarray] = []
 
-        def drop(fr, ds, cause):
-            out_f.append(np.asarray(fr, dtype=np.int64))
-            out_d.append(np.asarray(ds, dtype=np.int64))
+        def drop(mask, cause):
+            out_f.append(pf[mask])
+            out_d.append(pd[mask])
             out_c.append(np.full(len(out_f[-1]), CAUSE[cause], dtype=np.int64))
+            out_o.append(po[mask])
 
-        # broadcasts: the sender's reach, minus the exclude list; hidden links are dropped as occluded
+        # broadcasts: the sender's reach; copies to the exclude list are overheard (or, "filter", not sent)
         b_ids = np.flatnonzero(bcast)
         pf, idx = _pairs(table.indptr, src[b_ids], b_ids) if b_ids.size else (np.zeros(0, np.int64),) * 2
         pd = table.nbrs[idx]
+        po = np.zeros(len(pf), dtype=bool)
         ex = [(k, x) for k in b_ids.tolist() for x in frames[k].exclude]
         if ex and pf.size:
             ef, ed = np.array(ex, dtype=np.int64).T
-            keep = ~np.isin(pf * (n + 1) + pd, ef * (n + 1) + np.where((ed >= 0) & (ed < n), ed, n))
-            pf, pd, idx = pf[keep], pd[keep], idx[keep]
+            po = np.isin(pf * (n + 1) + pd, ef * (n + 1) + np.where((ed >= 0) & (ed < n), ed, n))
+            if cfg.exclude == "filter":
+                pf, pd, idx, po = pf[~po], pd[~po], idx[~po], po[~po]
         if hidden is not None and pf.size:
             h = hidden[idx]
-            drop(pf[h], pd[h], "occluded")
-            pf, pd = pf[~h], pd[~h]
+            drop(h, "occluded")
+            pf, pd, po = pf[~h], pd[~h], po[~h]
         # addressed frames: one candidate each, in range when it is in the sender's reach (the same rule)
         u_ids = np.flatnonzero(~bcast)
         if u_ids.size:
-            ud = np.fromiter((frames[k].dst for k in u_ids.tolist()), np.int64, len(u_ids))
-            dead = (ud < 0) | (ud >= n)
-            dead[~dead] = ~alive[ud[~dead]]
-            drop(u_ids[dead], ud[dead], "dead")
-            u_ids, ud = u_ids[~dead], ud[~dead]
-            where = table.find(src[u_ids], ud)
+            b_f, b_d, b_o = pf, pd, po
+            pf = u_ids
+            pd = np.fromiter((frames[k].dst for k in u_ids.tolist()), np.int64, len(u_ids))
+            po = np.zeros(len(pf), dtype=bool)
+            dead = (pd < 0) | (pd >= n)
+            dead[~dead] = ~alive[pd[~dead]]
+            drop(dead, "dead")
+            pf, pd, po = pf[~dead], pd[~dead], po[~dead]
+            where = table.find(src[pf], pd)
             far = where < 0
-            drop(u_ids[far], ud[far], "range")
-            u_ids, ud, where = u_ids[~far], ud[~far], where[~far]
+            drop(far, "range")
+            pf, pd, po, where = pf[~far], pd[~far], po[~far], where[~far]
             if hidden is not None:
                 h = hidden[where]
-                drop(u_ids[h], ud[h], "occluded")
-                u_ids, ud = u_ids[~h], ud[~h]
-            pf = np.concatenate([pf, u_ids])
-            pd = np.concatenate([pd, ud])
+                drop(h, "occluded")
+                pf, pd, po = pf[~h], pd[~h], po[~h]
+            pf = np.concatenate([b_f, pf])
+            pd = np.concatenate([b_d, pd])
+            po = np.concatenate([b_o, po])
         # bandwidth: every frame sent charges its sender, in sending order
         if cfg.bandwidth and nf:
             everyone = np.arange(nf, dtype=np.int64)
             over = self._charge(src, frames, everyone)
             if over.size and pf.size:
                 lost = np.isin(pf, over)
-                drop(pf[lost], pd[lost], "bandwidth")
-                pf, pd = pf[~lost], pd[~lost]
+                drop(lost, "bandwidth")
+                pf, pd, po = pf[~lost], pd[~lost], po[~lost]
         ps = src[pf]
         if self.links and pf.size:
             sev = self.links.mask(ps, pd)
-            drop(pf[sev], pd[sev], "cut")
-            pf, pd, ps = pf[~sev], pd[~sev], ps[~sev]
+            drop(sev, "cut")
+            pf, pd, ps, po = pf[~sev], pd[~sev], ps[~sev], po[~sev]
         p_ok = self._success_probability(tick, ps, pd, positions, ranges) if pf.size else None
         if p_ok is not None:
             lost = rng.uniform(self.seed, rng.LOSS, tick, ps, seq[pf], pd) >= p_ok  # p_ok = 0 or 1: certain
-            drop(pf[lost], pd[lost], "loss")
-            pf, pd = pf[~lost], pd[~lost]
+            drop(lost, "loss")
+            pf, pd, po = pf[~lost], pd[~lost], po[~lost]
         out_f.append(pf)
         out_d.append(pd)
         out_c.append(np.full(len(pf), -1, dtype=np.int64))
-        return Decision(np.concatenate(out_f), np.concatenate(out_d), np.concatenate(out_c), src, seq)
+        out_o.append(po)
+        return Decision(np.concatenate(out_f), np.concatenate(out_d), np.concatenate(out_c), src, seq,
+                        np.concatenate(out_o))
 
     def _charge(self, senders: np.ndarray, frames: list[Outgoing], which: np.ndarray) -> np.ndarray:
         """Add the bodies of frames ``which`` (sent by ``senders``, in order) to the budget; those past the cap."""

@@ -576,22 +576,23 @@ class World:
             bad = ~ok
             fr = out.frame[bad]
             self.record.dropped_arrays(out.src[fr], out.seq[fr], out.dst[bad], out.cause[bad])
-        if self.situated.rab and ok.any():
-            fr = out.frame[ok]
-            self.situated.note_rab_arrays(self.tick, out.dst[ok], out.src[fr], out.seq[fr], r.pos, r.heading)
+        handed = ok & ~out.overheard
+        if self.situated.rab and handed.any():
+            fr = out.frame[handed]
+            self.situated.note_rab_arrays(self.tick, out.dst[handed], out.src[fr], out.seq[fr], r.pos, r.heading)
         if self.lockstep:
             if ok.any():
                 self._due[self.tick + self.radio.latency].append((frames, out.only(ok), self.tick))
         else:
-            fr, dst = out.frame[ok].tolist(), out.dst[ok].tolist()
-            self._schedule_realtime([(d, frames[k].src, frames[k].seq, frames[k], self.tick)
-                                     for d, k in zip(dst, fr, strict=True)])
+            fr, dst, heard = out.frame[ok].tolist(), out.dst[ok].tolist(), out.overheard[ok].tolist()
+            self._schedule_realtime([(d, frames[k], h) for d, k, h in zip(dst, fr, heard, strict=True)])
 
     def _deliver_due(self, tick: int) -> dict[int, list]:
         """Lockstep: each robot's inbox of tick ``tick`` as (frame, send tick), ordered by (src, seq).
 
         The tick's deliveries are put in (dst, src, seq) order with one sort; the trace records them in that
-        order; those whose receiver died meanwhile are dropped as ``dead``.
+        order; those whose receiver died meanwhile are dropped as ``dead``. Overheard copies (world/radio.py)
+        arrive the same way and are recorded as such, in the same order, but go in no inbox.
         """
         batches = self._due.pop(tick, [])
         if not batches:
@@ -600,16 +601,20 @@ class World:
         parts = []
         for fs, out, sent_tick in batches:
             parts.append((out.dst, out.src[out.frame], out.seq[out.frame], out.frame + len(entries),
-                          np.full(len(out.frame), sent_tick, dtype=np.int64)))
+                          np.full(len(out.frame), sent_tick, dtype=np.int64), out.overheard))
             entries.extend([(f, sent_tick) for f in fs])
-        dst, src, seq, ref, sent = (np.concatenate(col) for col in zip(*parts, strict=True))
+        dst, src, seq, ref, sent, heard = (np.concatenate(col) for col in zip(*parts, strict=True))
         order = np.lexsort((seq, src, dst))
-        dst, src, seq, ref, sent = dst[order], src[order], seq[order], ref[order], sent[order]
+        dst, src, seq, ref, sent, heard = dst[order], src[order], seq[order], ref[order], sent[order], heard[order]
         live = self.robots.alive[dst]
         if not live.all():
             for d, s_, q in zip(dst[~live].tolist(), src[~live].tolist(), seq[~live].tolist(), strict=True):
                 self.record.dead(s_, q, d)
-            dst, src, seq, ref, sent = dst[live], src[live], seq[live], ref[live], sent[live]
+            dst, src, seq, ref, sent, heard = dst[live], src[live], seq[live], ref[live], sent[live], heard[live]
+        if heard.any():
+            self.record.overheard_arrays(src[heard], seq[heard], dst[heard], sent[heard])
+            keep = ~heard
+            dst, src, seq, ref, sent = dst[keep], src[keep], seq[keep], ref[keep], sent[keep]
         self.record.delivered_arrays(src, seq, dst, sent)
         if not len(dst):
             return {}
@@ -621,19 +626,20 @@ class World:
         ids = dst[bounds[:-1]].tolist()
         return {rid: items[a:b] for rid, a, b in zip(ids, bounds[:-1], bounds[1:], strict=True)}
 
-    def _schedule_realtime(self, deliveries: list[tuple[int, int, int, Outgoing, int]]) -> None:
-        """Realtime: each delivery goes to its host at once, due when its drawn latency has elapsed.
+    def _schedule_realtime(self, copies: list[tuple[int, Outgoing, bool]]) -> None:
+        """Realtime: each copy ``(receiver, frame, overheard)`` is due when its drawn latency has elapsed.
 
         The latency runs from the sender's radio call (``Outgoing.at``, the sender host's wall clock), taken no
         earlier than ``MAX_BACKDATE_S`` before the world received the frame and never after it (a host cannot buy
-        an earlier delivery by back-dating). The receiving host hands the frame to its robot at the due time
-        (swarmactors/precise_timer.py), never earlier; the world's own timer records the delivery in the trace
-        at the same time, or a drop as ``dead`` if the receiver died meanwhile.
+        an earlier delivery by back-dating). A delivery goes to its receiver's host at once, which hands the
+        frame to its robot at the due time (swarmactors/precise_timer.py), never earlier; the world's own timer
+        records the delivery in the trace at the same time, or a drop as ``dead`` if the receiver died
+        meanwhile. An overheard copy goes to no host: only the world's timer records it.
         """
-        by_frame: dict[int, list[int]] = defaultdict(list)
+        by_frame: dict[int, list[tuple[int, bool]]] = defaultdict(list)
         frames: dict[int, Outgoing] = {}
-        for dst, _, _, f, _ in deliveries:
-            by_frame[id(f)].append(dst)
+        for dst, f, heard in copies:
+            by_frame[id(f)].append((dst, heard))
             frames[id(f)] = f
         sent_at = self.clock.now()
         received = time.time()
@@ -641,11 +647,11 @@ class World:
         for key, dsts in by_frame.items():
             f = frames[key]
             start = received if f.at is None else min(received, max(f.at, received - MAX_BACKDATE_S))
-            lat = self.medium.latencies_s(self.tick, f.src, f.seq, np.array(dsts)).tolist()
-            self.clock.after([start + x - received for x in lat], [(dst, f, self.tick) for dst in dsts])
-            for dst, x in zip(dsts, lat, strict=True):
+            lat = self.medium.latencies_s(self.tick, f.src, f.seq, np.array([d for d, _ in dsts])).tolist()
+            self.clock.after([start + x - received for x in lat], [(dst, f, self.tick, heard) for dst, heard in dsts])
+            for (dst, heard), x in zip(dsts, lat, strict=True):
                 host = self.robots.host[dst]
-                if host is None:
+                if heard or host is None:
                     continue
                 rab = (list(self.situated.take_rab(f.src, f.seq, dst))
                        if self.situated.rab and self.situated.wants_rab(dst) else None)
@@ -655,15 +661,18 @@ class World:
             if entry is not None and entry.alive:
                 self.link.publish(self.keys.down(host), self._down(host, Deliveries(batch)))
 
-    def _rt_deliver(self, item: tuple[int, Outgoing, int]) -> None:
-        """Realtime bookkeeping at a delivery's due time: delivered, or dropped as ``dead``."""
-        dst, f, sent_tick = item
+    def _rt_deliver(self, item: tuple[int, Outgoing, int, bool]) -> None:
+        """Realtime bookkeeping at a copy's due time: delivered (or overheard), or dropped as ``dead``."""
+        dst, f, sent_tick, heard = item
         if self.finished:
             return
         if not self.robots.alive[dst]:
             self.record.dead(f.src, f.seq, dst)
             return
-        self.record.delivered(f.src, f.seq, dst, sent_tick)
+        if heard:
+            self.record.overheard(f.src, f.seq, dst, sent_tick)
+        else:
+            self.record.delivered(f.src, f.seq, dst, sent_tick)
 
     # ------------------------------------------------------------ actions and failures
     def _apply(self, action: dict, source: str) -> None:

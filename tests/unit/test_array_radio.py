@@ -4,9 +4,11 @@ The reference decides one frame at a time, one receiver at a time, in plain Pyth
 world/radio.py's docstring:
 
 * reach: robot j hears robot i when j != i, both alive, and dx*dx + dy*dy <= r_i * r_i (directed ranges);
-* a broadcast's candidates are the sender's reach minus its exclude list; the ones an obstacle hides are dropped
-  as ``occluded``; an addressed frame is dropped as ``dead`` (no such robot, or dead), ``range`` (out of the
-  sender's reach, by the same squared-distance rule) or ``occluded`` (in reach but hidden);
+* a broadcast's candidates are the sender's reach; a copy to a robot on its exclude list goes through every rule
+  below and, if it arrives, is ``overheard`` rather than delivered (with ``exclude = "filter"`` such robots are
+  no candidates at all); the ones an obstacle hides are dropped as ``occluded``; an addressed frame is dropped
+  as ``dead`` (no such robot, or dead), ``range`` (out of the sender's reach, by the same squared-distance
+  rule) or ``occluded`` (in reach but hidden);
 * every frame adds its body's length to its sender's bytes this tick, in sending order, whether or not it has
   candidates; a frame past the cap is dropped as ``bandwidth`` for all its candidates;
 * then severed links (cuts, partitions) are dropped as ``cut``;
@@ -87,11 +89,14 @@ class Reference:
             receivers = []
             if f.dst is None:
                 for j in range(n):
-                    if self.hears(pos, ranges, alive, f.src, j) and j not in f.exclude:
-                        if frozenset((f.src, j)) in blocked:
-                            out[key(j)] = "occluded"
-                        else:
-                            receivers.append(j)
+                    if not self.hears(pos, ranges, alive, f.src, j):
+                        continue
+                    if j in f.exclude and cfg.get("exclude") == "filter":
+                        continue
+                    if frozenset((f.src, j)) in blocked:
+                        out[key(j)] = "occluded"
+                    else:
+                        receivers.append(j)
             else:
                 d = f.dst
                 if not (0 <= d < n) or not alive[d]:
@@ -117,7 +122,8 @@ class Reference:
                     delta = cfg["delta"]
                     p = (1.0 if dist < delta else float(np.exp(-delta * dist / ranges[f.src]))) * p
                 u = float(rng.uniform(self.seed, rng.LOSS, tick, f.src, f.seq, j))
-                out[key(j)] = "loss" if u >= p else "delivered"
+                arrived = "overheard" if f.dst is None and j in f.exclude else "delivered"
+                out[key(j)] = "loss" if u >= p else arrived
         return out
 
 
@@ -135,7 +141,8 @@ def scenarios(draw):
     ids = st.integers(min_value=0, max_value=n - 1)
     loss_model = draw(st.sampled_from(["bernoulli", "gilbert"]))
     cfg = {"model": draw(st.sampled_from(["bernoulli", "distance"])), "delta": draw(st.sampled_from([0.3, 1.0])),
-           "bandwidth": draw(st.sampled_from([0, 0, 5, 12])), "loss_model": loss_model}
+           "bandwidth": draw(st.sampled_from([0, 0, 5, 12])), "loss_model": loss_model,
+           "exclude": draw(st.sampled_from(["overheard", "filter"]))}
     if loss_model == "gilbert":
         cfg.update(p_gb=draw(st.sampled_from([0.1, 0.5])), p_bg=draw(st.sampled_from([0.2, 0.6])),
                    loss_good=draw(st.sampled_from([0.0, 0.1])), loss_bad=draw(st.sampled_from([0.7, 1.0])))
@@ -172,11 +179,12 @@ def scenarios(draw):
 
 def array_outcomes(decision, frames) -> dict:
     out = {}
-    for k, d, c in zip(decision.frame.tolist(), decision.dst.tolist(), decision.cause.tolist(), strict=True):
+    for k, d, c, o in zip(decision.frame.tolist(), decision.dst.tolist(), decision.cause.tolist(),
+                          decision.overheard.tolist(), strict=True):
         f = frames[k]
         key = (f.src, f.seq, d)
         assert key not in out, f"two outcomes for {key}"
-        out[key] = "delivered" if c < 0 else DROP_CAUSES[c]
+        out[key] = ("overheard" if o else "delivered") if c < 0 else DROP_CAUSES[c]
     return out
 
 

@@ -95,7 +95,7 @@ def sparse_rate(cfg: dict, pos: np.ndarray, samples: int = 300) -> tuple[int, in
     alive, ranges, reach = np.ones(n, dtype=bool), np.full(n, 10.0), {0: np.arange(1, n)}
     got = lost = 0
     for k in range(samples):
-        d, drops = m.decide(25 * k, [Outgoing(0, None, "K", k + 1, b"x")], reach, alive, pos, ranges)
+        d, drops, _ = m.decide(25 * k, [Outgoing(0, None, "K", k + 1, b"x")], reach, alive, pos, ranges)
         got += len(d)
         lost += sum(1 for x in drops if x[4] == "loss")
     return got, got + lost
@@ -116,7 +116,7 @@ def test_bursts_replace_bernoulli_loss_and_multiply_with_the_distance_model():
     outcomes = set()
     for t in range(200):
         fs = [Outgoing(0, None, "K", 4 * t + i, b"x") for i in range(4)]
-        d, _ = m.decide(t, fs, {0: np.array([1])}, np.ones(2, dtype=bool), pos[:2], np.full(2, 10.0))
+        d, _, _ = m.decide(t, fs, {0: np.array([1])}, np.ones(2, dtype=bool), pos[:2], np.full(2, 10.0))
         outcomes.add(len(d))
     assert outcomes == {0, 4}
 

@@ -5,9 +5,11 @@ at ``tick``, with ``in_range[i]`` the sorted alive robots within robot i's range
 computed by brute force (plain loops), except in the test of the whole pipeline, which feeds it from
 ``world.sensing.within`` as the world does and still checks against brute force. Rules tested:
 
-* range: a broadcast reaches exactly the alive robots within the *transmitter's* range, except the sender and
-  its ``exclude`` list (heterogeneous ranges give one-way links); robots out of range are neither receivers
-  nor drops; excluded robots are neither; an addressed frame reaches only its destination, dropped as
+* range: a broadcast reaches exactly the alive robots within the *transmitter's* range, except the sender
+  (heterogeneous ranges give one-way links); robots out of range are neither receivers nor drops; a robot on
+  the ``exclude`` list gets the same fate as without the list, except that a copy that arrives is *overheard*
+  (not delivered); with ``exclude = "filter"`` excluded robots are neither receivers nor drops; an addressed
+  frame reaches only its destination, dropped as
   ``range`` when out of the sender's range and as ``dead`` when the destination is dead or does not exist;
 * every (frame, receiver) pair has exactly one outcome, a delivery or a drop with a cause from
   ``DROP_CAUSES``, and the drop keeps the frame's kind; deliveries carry the send tick (the world adds
@@ -75,13 +77,14 @@ def decide(medium, frames, pos, ranges, alive=None, tick=0, reach=None):
     return medium.decide(tick, frames, reach, alive, pos, ranges)
 
 
-def outcomes(deliveries, drops) -> dict[tuple[int, int, int], str]:
-    """``{(src, seq, dst): "delivered" or cause}``; fails if a pair has two outcomes."""
+def outcomes(deliveries, drops, overheard=()) -> dict[tuple[int, int, int], str]:
+    """``{(src, seq, dst): "delivered", "overheard" or cause}``; fails if a pair has two outcomes."""
     out = {}
-    for dst, src, seq, _frame, _tick in deliveries:
-        key = (int(src), int(seq), int(dst))
-        assert key not in out, f"two outcomes for {key}"
-        out[key] = "delivered"
+    for fate, copies in (("delivered", deliveries), ("overheard", overheard)):
+        for dst, src, seq, _frame, _tick in copies:
+            key = (int(src), int(seq), int(dst))
+            assert key not in out, f"two outcomes for {key}"
+            out[key] = fate
     for src, seq, dst, _kind, cause in drops:
         key = (int(src), int(seq), int(dst))
         assert key not in out, f"two outcomes for {key}: {out[key]} and {cause}"
@@ -148,7 +151,7 @@ def expected_outcomes(pos, ranges, alive, severed, frames):
     want, edge = {}, set()
     for f in frames:
         s = f.src
-        targets = [j for j in range(n) if j != s and alive[j] and j not in f.exclude] if f.dst is None else [f.dst]
+        targets = [j for j in range(n) if j != s and alive[j]] if f.dst is None else [f.dst]
         for j in targets:
             key = (s, f.seq, j)
             if not (0 <= j < n and alive[j]):
@@ -161,7 +164,8 @@ def expected_outcomes(pos, ranges, alive, severed, frames):
                 if f.dst is not None:
                     want[key] = "range"  # a broadcast's out-of-range robots are simply not receivers
             else:
-                want[key] = "cut" if severed(s, j) else "delivered"
+                heard = "overheard" if f.dst is None and j in f.exclude else "delivered"
+                want[key] = "cut" if severed(s, j) else heard
     return want, edge
 
 
@@ -186,8 +190,8 @@ def test_receivers_and_drops_match_brute_force(world, reach_from_kd_tree):
     if reach_from_kd_tree:  # the world's own pipeline: reach from the k-d tree, then the radio
         live = np.flatnonzero(alive)
         reach = within(np.array(pos, dtype=float), live, np.array(ranges, dtype=float))
-    deliveries, drops = decide(m, frames, pos, ranges, alive, tick=3, reach=reach)
-    got = outcomes(deliveries, drops)
+    deliveries, drops, overheard = decide(m, frames, pos, ranges, alive, tick=3, reach=reach)
+    got = outcomes(deliveries, drops, overheard)
     want, edge = expected_outcomes(pos, ranges, alive, severed, frames)
     assert {k: v for k, v in got.items() if k not in edge} == want
     assert all(t == 3 for *_, t in deliveries)  # stamped with the send tick
@@ -231,13 +235,24 @@ def test_addressed_frame_to_dead_or_unknown_robot_is_dropped_as_dead():
                    (0, 5, 2): "delivered"}  # the broadcast does not count the dead robot at all
 
 
-def test_exclude_list_removes_receivers_without_a_drop_and_leaves_the_others_alone():
+def test_excluded_robots_overhear_what_they_would_have_received_and_nothing_else_changes():
     pos, ranges = star(30, 0.9, seed=3)
     cfg = RadioConfig(loss=0.5)
     full = outcomes(*decide(Medium(cfg, seed=8), [bcast(0, 1)], pos, ranges, tick=2))
     excluded = (3, 7, 11, 99)  # 99 is no robot at all: no effect
     part = outcomes(*decide(Medium(cfg, seed=8), [bcast(0, 1, exclude=excluded)], pos, ranges, tick=2))
     assert set(full) == {(0, 1, j) for j in range(1, 31)}
+    relabelled = {k: ("overheard" if k[2] in excluded and v == "delivered" else v) for k, v in full.items()}
+    assert part == relabelled
+    assert "overheard" in part.values() and Counter(full.values())["loss"] > 0  # not trivially equal
+
+
+def test_exclude_filter_removes_receivers_without_a_drop_and_leaves_the_others_alone():
+    pos, ranges = star(30, 0.9, seed=3)
+    cfg = RadioConfig(loss=0.5, exclude="filter")
+    full = outcomes(*decide(Medium(cfg, seed=8), [bcast(0, 1)], pos, ranges, tick=2))
+    excluded = (3, 7, 11, 99)  # 99 is no robot at all: no effect
+    part = outcomes(*decide(Medium(cfg, seed=8), [bcast(0, 1, exclude=excluded)], pos, ranges, tick=2))
     assert part == {k: v for k, v in full.items() if k[2] not in excluded}
     assert Counter(full.values())["loss"] > 0  # the others' fates were not trivially equal
 

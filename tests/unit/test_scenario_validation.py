@@ -73,6 +73,7 @@ RADIO = {
     "occlusion": (BOOLEAN, False),
     "loss_model": (STRING, "bernoulli"), "p_gb": (NUMBER, None), "p_bg": (NUMBER, None),
     "loss_good": (NUMBER, None), "loss_bad": (NUMBER, None), "rab": (BOOLEAN, False),
+    "exclude": (STRING, "overheard"),  # issue 23: excluded robots overhear broadcasts
 }
 WORLD = {"dims": (INTEGER, 2), "bounds": ("list", None), "objects": ("list", []), "max_robots": (INTEGER, 10_000),
          "obstacles": ("list", []), "map": ("table", None), "blocking": (BOOLEAN, False)}

@@ -27,9 +27,19 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from swarmactors.trace import VERSION, TraceError, TraceWriter, canonical, iter_trace, read_trace, verify
+from swarmactors.trace import (
+    VERSION,
+    TraceError,
+    TraceWriter,
+    canonical,
+    iter_trace,
+    read_trace,
+    record_problem,
+    summarise,
+    verify,
+)
 
-ORDER = ("t", "pos", "sent", "del", "drop", "status", "ev", "mal")
+ORDER = ("t", "pos", "sent", "del", "ovh", "drop", "status", "ev", "mal")
 
 
 def packb(obj) -> bytes:
@@ -40,7 +50,7 @@ def my_canonical(rec: dict) -> dict:
     """docs/trace.md's canonical form, written out."""
     out = {"t": rec["t"]}
     sort_keys = {"sent": lambda r: (r[0], r[1]), "drop": lambda r: (r[0], r[1], r[2])}
-    for key in ("pos", "sent", "del", "drop"):
+    for key in ("pos", "sent", "del", "ovh", "drop"):
         if rec.get(key):
             out[key] = sorted(rec[key], key=sort_keys[key]) if key in sort_keys else list(rec[key])
     if rec.get("status"):
@@ -88,6 +98,7 @@ def tick_records(draw, t=None):
     rec["sent"] = [[s, q, draw(st.sampled_from(["B", "FLOOD"])), draw(st.none() | IDS), draw(st.integers(0, 99))]
                    for s, q in frames]
     rec["del"] = [list(x) for x in draw(st.lists(st.tuples(IDS, SEQ, IDS, st.integers(0, 99)), max_size=6))]
+    rec["ovh"] = [list(x) for x in draw(st.lists(st.tuples(IDS, SEQ, IDS, st.integers(0, 99)), max_size=3))]
     rec["drop"] = [[s, q, d, draw(CAUSES)] for s, q, d in draw(st.lists(st.tuples(IDS, SEQ, IDS), unique=True,
                                                                           max_size=6))]
     rec["status"] = draw(st.dictionaries(IDS, st.dictionaries(st.text(min_size=1, max_size=4), VALUE, min_size=1,
@@ -126,7 +137,7 @@ def test_canonical_matches_the_documented_form(rec):
     assert got == want
     assert list(got) == [k for k in ORDER if k in got]  # key order is fixed, so it is hashed the same way
     assert packb(got) == packb(want)
-    for k in ("pos", "sent", "del", "drop", "status", "ev", "mal"):
+    for k in ("pos", "sent", "del", "ovh", "drop", "status", "ev", "mal"):
         assert (k in got) == bool(rec.get(k))  # empty lists and maps are left out
 
 
@@ -234,3 +245,20 @@ def test_hash_without_a_file_equals_hash_with_a_file(tmp_path):
         w.record(copy.deepcopy(records[0]))
         w.close()
     assert with_file.trace_hash == without.trace_hash == my_hash(records)
+
+
+def test_version_1_and_2_traces_are_read_and_others_refused(tmp_path):
+    """Version 2 added ``ovh`` (overheard copies, issue 23); a version 1 trace reads as before."""
+    rec = {"t": 0, "del": [[0, 1, 2, 0]], "ovh": [[0, 1, 3, 0]]}
+    assert record_problem(rec) is None
+    assert record_problem({"t": 0, "ovh": [[0, 1]]}) is not None  # a short row
+    assert summarise(canonical(dict(rec))) == {"t": 0, "ndel": 1, "novh": 1}
+    for version, readable in ((1, True), (2, True), (3, False)):
+        path = tmp_path / f"v{version}.msgpack"
+        path.write_bytes(packb({"trace": "swarmactors", "version": version, "run_id": "x"}) + packb(rec))
+        if readable:
+            header, records, footer = read_trace(path)
+            assert header["version"] == version and records == [rec] and footer is None
+        else:
+            with pytest.raises(TraceError, match="trace version 3, this reader knows 1, 2"):
+                read_trace(path)
