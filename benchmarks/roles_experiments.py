@@ -169,6 +169,10 @@ def main_job(n: int, seed: int, ticks: int, params: dict | None = None) -> dict:
         "received_per_tick_by_kind": {k: float(np.mean([r["received_by_kind"].get(k, 0) / r["ticks"]
                                                         for r in reps.values()]))
                                       for k in sorted({k for r in reps.values() for k in r["received_by_kind"]})},
+        # what the radio carried to each robot (issue 23): deliveries plus the overheard copies it discarded
+        "radio_per_tick": float(np.mean([(result.frame_counts(rid)["received"]
+                                          + result.frame_counts(rid).get("overheard", 0)) / ticks for rid in reps])),
+        "overheard_per_tick": float(np.mean([result.frame_counts(rid).get("overheard", 0) / ticks for rid in reps])),
         "aat_saving": m["aat_saving"],
         "repeaters_max": max(sum(1 for r in reps.values() if r["role"] == "repeater"), 0),
         "checks": {c["name"]: c["passed"] for c in result.checks},
@@ -406,6 +410,10 @@ def plot_main(rows: list[dict], img: Path, prefix: str = "roles") -> dict:
             "received_per_tick": float(np.mean([r["received_per_tick"] for r in rs])),
             "received_per_tick_by_kind": {k: float(np.mean([r["received_per_tick_by_kind"].get(k, 0) for r in rs]))
                                           for k in sorted({k for r in rs for k in r["received_per_tick_by_kind"]})},
+            "radio_per_tick": (float(np.mean([r["radio_per_tick"] for r in rs]))
+                               if all("radio_per_tick" in r for r in rs) else None),
+            "overheard_per_tick": (float(np.mean([r["overheard_per_tick"] for r in rs]))
+                                   if all("overheard_per_tick" in r for r in rs) else None),
             "checks_failed": sorted({k for r in rs for k, v in r["checks"].items() if not v}),
         }
     # Fig. 7
@@ -452,7 +460,9 @@ def plot_main(rows: list[dict], img: Path, prefix: str = "roles") -> dict:
     ax[0].boxplot([[v for r in by[n] for v in r["cpu_s"].values()] for n in ns], tick_labels=ns)
     ax[0].set_ylabel("processing time per robot per mission (s)")
     ax[0].set_title("Fig. 10 (ours)", fontsize=10)
-    ax[1].plot(ns, [agg[n]["received_per_tick"] for n in ns], "o-", label="all kinds")
+    ax[1].plot(ns, [agg[n]["received_per_tick"] for n in ns], "o-", label="all kinds (handed over)")
+    if all(agg[n].get("radio_per_tick") is not None for n in ns):
+        ax[1].plot(ns, [agg[n]["radio_per_tick"] for n in ns], "s-", label="all the radio carried (+ overheard)")
     kinds = sorted({k for n in ns for k in agg[n]["received_per_tick_by_kind"]})
     for k in kinds:
         vals = [agg[n]["received_per_tick_by_kind"].get(k, 0) for n in ns]
