@@ -98,12 +98,12 @@ def jobs(quick: bool) -> list[dict]:
 def large_jobs(ks: list[int], graphs: int) -> list[dict]:
     """The runs of ``--large``: K = ``ks`` only, every p, ``graphs`` graphs each, the default drop semantics.
 
-    Horizons: the full ones doubled for PI1 and the wave (their rate falls with K), PI2's as it is; the smallest
-    K first, so an interrupted run has whole points of the smaller swarm.
+    Horizons: the full ones doubled for PI1 and the wave (their rate falls with K), PI2's as it is. Graph by
+    graph (every K and p for graph 1, then graph 2, ...), so an interrupted run has whole curves of every K.
     """
     return [{"K": k, "seed": seed, "method": method, "p": p, "drop": "drop",
              "ticks": 2 * TICKS[method] if method != "pi2" else TICKS[method]}
-            for k in sorted(ks) for seed in range(1, graphs + 1) for p in PS for method in ("pi1", "wave", "pi2")]
+            for seed in range(1, graphs + 1) for k in sorted(ks) for p in PS for method in ("pi1", "wave", "pi2")]
 
 
 def summarise(rows: list[dict]) -> list[dict]:

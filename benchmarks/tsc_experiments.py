@@ -265,6 +265,42 @@ def sweep_figures(csv_path: Path, out_dir: Path) -> list[Path]:
     return [out / "table2.json", *paths]
 
 
+def markdown_tables(data: dict) -> str:
+    """Table II as docs/protocols/tsc.md prints it (ours · the paper's per cell), from a written ``--out`` JSON."""
+    agg, limit, per_cell = data["table2"], data["time_limit_s"], data["per_cell"]
+    paper = {"tctm": PAPER_TCTM, "tdsm": PAPER_TDSM}
+    lines = []
+    for model in ("tctm", "tdsm"):
+        lines += [f"| {model.upper()} | " + " | ".join(f"D = {d}" if k == 0 else str(d)
+                                                     for k, d in enumerate(DENSITIES)) + " |",
+                  "|---|" + "---|" * len(DENSITIES)]
+        for cls, row in sorted(agg[model].items(), key=lambda kv: int(kv[0])):
+            cells = []
+            for k, d in enumerate(DENSITIES):
+                c = row.get(str(d))
+                if c is None:
+                    cells.append("–")
+                    continue
+                at = ""
+                if c["at_limit"]:
+                    gap = "" if c["mean_gap_at_limit"] is None else f", gap {c['mean_gap_at_limit']:.2f}"
+                    at = f" ({c['at_limit']}/{c['n']} at limit{gap})"
+                cells.append(f"{c['mean_s']:.1f}{at} · {paper[model][int(cls)][k]:,.1f}")
+            lines.append(f"| {cls} | " + " | ".join(cells) + " |")
+        lines.append("")
+    f = agg["fig7_fig8"]
+    hits = {m: sum(c["at_limit"] for row in agg[m].values() for c in row.values()) for m in ("tctm", "tdsm")}
+    total = sum(c["n"] for row in agg["tctm"].values() for c in row.values())
+    lines += [f"{total} instances ({per_cell} per cell), limit {limit:.0f} s: {hits['tctm']} TCTM and "
+              f"{hits['tdsm']} TDSM solves at the limit; schedules checked {agg['checks']['schedules_checked']}, "
+              f"violations {agg['checks']['violations']}.",
+              f"Figs. 7-8 on {f['instances']} instances: TDSM dislocation below TCTM's on "
+              f"{f['tdsm_dislocation_below_tctm']} (median ratio {f['median_dislocation_ratio']:.2f}); arm cost "
+              f"below on {f['tdsm_arm_cost_below_tctm']} (median ratio {f['median_arm_ratio']:.2f}), below the "
+              f"tight arms on {f['tdsm_arm_cost_below_tctm_tight']} (median {f['median_arm_ratio_tight']:.2f})."]
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="8 robots, 4 tasks, D in {0.005, 0.5}, one instance a cell")
@@ -275,7 +311,11 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "tsc.json")
     ap.add_argument("--img", type=Path, default=ROOT / "docs" / "img")
     ap.add_argument("--resume", action="store_true", help="skip instances already in OUT or OUT.partial.jsonl")
+    ap.add_argument("--markdown", action="store_true", help="print Table II from OUT as docs/protocols/tsc.md has it")
     args = ap.parse_args(argv)
+    if args.markdown:
+        print(markdown_tables(json.loads(args.out.read_text())))
+        return 0
     classes = QUICK if args.quick else CLASSES
     densities = (DENSITIES[0], DENSITIES[-1]) if args.quick else DENSITIES
     per_cell = 1 if args.quick else args.per_cell
