@@ -158,3 +158,49 @@ def sequence_scenario(sequence, *, scale: float | None = None, time_unit: float 
         "checks": checks if checks is not None else [
             {"use": "secs.connected"}, {"use": "world.no_collisions"}, {"use": "protocols.secs.oracle:slots"}],
     }
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Write a runnable scenario from the sequence of ``swarmactors schedule --secs``.
+
+    ``python -m protocols.secs.scenarios SEQUENCE.toml --out SCENARIO.toml``; bad input: the file, the key and
+    the value, exit 2.
+    """
+    import argparse
+    import sys
+    from pathlib import Path
+
+    import tomli_w
+
+    ap = argparse.ArgumentParser(prog="python -m protocols.secs.scenarios", description=main.__doc__.split("\n")[0])
+    ap.add_argument("sequence", type=Path)
+    ap.add_argument("--out", type=Path, required=True, help="the scenario TOML to write")
+    ap.add_argument("--scale", type=float, default=None, help="metres per length unit (default 3 m / gamma)")
+    ap.add_argument("--time-unit", type=float, default=60.0, help="seconds per duration unit (default 60)")
+    ap.add_argument("--delta", type=float, default=240.0, help="Lennard-Jones δ in cm (default 240)")
+    ap.add_argument("--flock-speed", type=float, default=0.05, help="the master's speed leading the flock (m/s)")
+    ap.add_argument("--seconds", type=float, default=None, help="run length (default: flights + durations + 60 s "
+                                                                 "a slot)")
+    args = ap.parse_args(argv)
+    for key in ("scale", "time_unit", "delta", "flock_speed", "seconds"):
+        v = getattr(args, key)
+        if v is not None and not (math.isfinite(v) and v > 0):
+            print(f"--{key.replace('_', '-')} = {v!r}: must be a positive number", file=sys.stderr)
+            return 2
+    try:
+        sc = sequence_scenario(args.sequence, scale=args.scale, time_unit=args.time_unit, delta=args.delta,
+                               seconds=args.seconds, flock_speed=args.flock_speed,
+                               name=f"secs-{args.sequence.stem}")
+    except SequenceError as exc:
+        print(exc, file=sys.stderr)
+        return 2
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(f"# The SECS navigation controller driven by {args.sequence} (seed 003 §III-C), written by\n"
+                        f"# python -m protocols.secs.scenarios. Robot 0, the master, alone holds the schedule.\n"
+                        + tomli_w.dumps(sc))
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
