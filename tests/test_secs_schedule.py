@@ -31,7 +31,7 @@ def test_schedule_drives_flock_eruption_and_rendezvous(tmp_path):
     assert [[t["id"] for t in s["tasks"]] for s in slots] == [["a", "b"], ["c"]]
     assert math.dist(slots[0]["deployment"], slots[1]["deployment"]) > 3.0  # the swarm must move between slots
 
-    sc = sequence_scenario(seq, scale=1.0, time_unit=60.0, flock_speed=0.1)
+    sc = sequence_scenario(seq, scale=1.5, time_unit=60.0, flock_speed=0.1)
     assert "schedule" not in sc["robots"][1]["behaviors"][0]  # only the master knows it
     result = swarmactors.run(sc, out=tmp_path / "run")
     got = {c["name"]: c for c in result.checks}
