@@ -35,7 +35,7 @@ COLUMNS = {120.0: [2 * math.sqrt(2), 3 * math.sqrt(2), 10 * math.sqrt(2)],
            240.0: [3 * math.sqrt(2), 5 * math.sqrt(2), 10 * math.sqrt(2), 15 * math.sqrt(2)]}
 # δ = 90 and 275 (§IV-A, Fig. 4) have no Table I row in the paper: read at the columns of the nearest δ
 COLUMNS[90.0], COLUMNS[275.0] = COLUMNS[120.0], COLUMNS[240.0]
-SIZES = (3, 5, 10, 15, 20, 25)
+SIZES = (3, 5, 10, 15, 20)  # Table I's; the sweep files add N = 25
 FIG5_DISTANCE = 5.0
 PAPER = {  # Table I: latency (s) per column, None for n/a; and the bracketed maximum reach (m)
     120.0: {3: ([None, None, None], 1.89), 5: ([81.1, None, None], 3.39), 10: ([36.3, 69.8, None], 7.31),
@@ -106,7 +106,7 @@ def one(job: dict) -> dict:
 def summarise(rows: list[dict]) -> dict:
     table: dict = {}
     for delta in COLUMNS:
-        for n in SIZES:
+        for n in sorted({r["n"] for r in rows}):
             cell = [r for r in rows if r["tasks"] == 1 and r["delta"] == delta and r["n"] == n]
             if not cell:
                 continue
