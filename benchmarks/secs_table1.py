@@ -33,7 +33,9 @@ import numpy as np
 TOL = 0.5
 COLUMNS = {120.0: [2 * math.sqrt(2), 3 * math.sqrt(2), 10 * math.sqrt(2)],
            240.0: [3 * math.sqrt(2), 5 * math.sqrt(2), 10 * math.sqrt(2), 15 * math.sqrt(2)]}
-SIZES = (3, 5, 10, 15, 20)
+# δ = 90 and 275 (§IV-A, Fig. 4) have no Table I row in the paper: read at the columns of the nearest δ
+COLUMNS[90.0], COLUMNS[275.0] = COLUMNS[120.0], COLUMNS[240.0]
+SIZES = (3, 5, 10, 15, 20)  # Table I's; the sweep files add N = 25
 FIG5_DISTANCE = 5.0
 PAPER = {  # Table I: latency (s) per column, None for n/a; and the bracketed maximum reach (m)
     120.0: {3: ([None, None, None], 1.89), 5: ([81.1, None, None], 3.39), 10: ([36.3, 69.8, None], 7.31),
@@ -104,7 +106,7 @@ def one(job: dict) -> dict:
 def summarise(rows: list[dict]) -> dict:
     table: dict = {}
     for delta in COLUMNS:
-        for n in SIZES:
+        for n in sorted({r["n"] for r in rows}):
             cell = [r for r in rows if r["tasks"] == 1 and r["delta"] == delta and r["n"] == n]
             if not cell:
                 continue
@@ -121,7 +123,17 @@ def summarise(rows: list[dict]) -> dict:
                 "redundancy": round(statistics.mean(r["redundancy"] for r in cell), 2),
                 "disconnected_ticks": sum(r["connected_ticks_lost"] for r in cell),
                 "collisions": sum(r["collisions"] for r in cell),
-                "paper": {"latency": PAPER[delta][n][0], "reach_below": PAPER[delta][n][1]}}
+                "paper": ({"latency": PAPER[delta][n][0], "reach_below": PAPER[delta][n][1]}
+                          if n in PAPER.get(delta, {}) else None)}
+    for t in sorted({r["tasks"] for r in rows if r["tasks"] > 3}):  # T = 5 (§IV-A): every task reached when?
+        runs = [r for r in rows if r["tasks"] == t]
+        full = [r["full_deployment"] for r in runs if r["full_deployment"] is not None]
+        table[f"tasks{t}"] = {"n": sorted({r["n"] for r in runs}), "delta": sorted({r["delta"] for r in runs}),
+                              "full_deployment_mean": round(statistics.mean(full), 1) if full else None,
+                              "deployed": f"{len(full)}/{len(runs)}", "reached": [r["reached"] for r in runs],
+                              "redundancy": round(statistics.mean(r["redundancy"] for r in runs), 2),
+                              "disconnected_ticks": sum(r["connected_ticks_lost"] for r in runs),
+                              "collisions": sum(r["collisions"] for r in runs)}
     fig5 = [r for r in rows if r["tasks"] == 3]
     if fig5:
         full = [r["full_deployment"] for r in fig5 if r["full_deployment"] is not None]

@@ -6,7 +6,8 @@ Every robot, every tick, broadcasts two messages:
 
 - ``SECS_T`` {"a": arm, "T": ∠T (its arm's direction in its own frame, or null), "al": aligned, "d": its
   estimated distance to the master along the swarm, "v": its velocity in its own frame, and, relayed from the
-  master, "p" (arm probabilities), "rv" (rendez-vous δ) and "fl" (flocking)}; the master's "T" is the list
+  master, "p" (arm probabilities), "rv" (rendez-vous δ), "fl" (flocking) and, when the master runs a
+  schedule, "ph" (the phase: how many behaviour changes the master has made)}; the master's "T" is the list
   of its tasks' directions, one per arm.
 - ``SECS_M`` {"M": [[i, ∠M_ji], ...]}: the bearing, in its own frame, at which it sees each neighbour i (one
   frame for all neighbours; each i reads its own entry).
@@ -15,6 +16,11 @@ A receiver i takes ∠O_ij from ``frame.rab`` (send-tick positions, as j measure
 frame by its heading at the send tick, and composes ∠T_i = ∠T_j + ∠O_ij − ∠M_ji + π (rules.compose_target).
 "Own frame" is the frame of ``ctx.pose``: fixed for a robot, turned from the world's by its unknown offset.
 Angles on the wire must be finite and in [0, 2π); a frame with any other value is refused and counted.
+
+With a ``schedule`` (the master's input only: the task subsets of the TSC, §III-C), the master is also the
+BMU: per slot it leads the flock to the deployment point, erupts one prominence per task of the slot for the
+slot's duration, then calls a rendez-vous (rules.bmu_next). Each change raises the phase "ph"; every robot
+follows the highest phase it hears and relays it, and draws a new arm at each eruption.
 """
 
 from __future__ import annotations
@@ -56,6 +62,9 @@ def parse_t(body) -> tuple[dict | None, str | None]:
     rv = body.get("rv")
     if rv is not None and not (_finite(rv) and rv > 0):
         return None, "malformed"
+    ph = body.get("ph")
+    if ph is not None and not (isinstance(ph, int) and not isinstance(ph, bool) and ph >= 0):
+        return None, "malformed"
     return body, None
 
 
@@ -69,6 +78,38 @@ def parse_m(body, me: int) -> tuple[float | None, str | None]:
         if pair[0] == me:
             return (pair[1], None) if rules.angle_ok(pair[1]) else (None, "angle")
     return None, None
+
+
+def schedule_problem(sch) -> str | None:
+    """What is wrong with a ``schedule`` parameter, or None.
+
+    {robots = |N|, slots = [{deployment = [x, y], duration = s, tasks = [{id, position = [x, y]}, ...]}, ...]},
+    lengths in m (the master's frame), durations in s.
+    """
+    if not isinstance(sch, dict) or not isinstance(sch.get("slots"), list) or not sch["slots"]:
+        return f"schedule must be a table with a non-empty list slots, got {sch!r}"
+    n = sch.get("robots")
+    if n is not None and not (isinstance(n, int) and not isinstance(n, bool) and n >= 2):
+        return f"schedule.robots must be an integer >= 2, got {n!r}"
+
+    def point(v) -> bool:
+        return isinstance(v, list) and len(v) == 2 and all(_finite(x) for x in v)
+
+    for k, slot in enumerate(sch["slots"]):
+        where = f"schedule.slots[{k}]"
+        if not isinstance(slot, dict):
+            return f"{where} must be a table, got {slot!r}"
+        if not point(slot.get("deployment")):
+            return f"{where}.deployment must be [x, y], got {slot.get('deployment')!r}"
+        if not (_finite(slot.get("duration")) and slot["duration"] > 0):
+            return f"{where}.duration must be a positive number of seconds, got {slot.get('duration')!r}"
+        tasks = slot.get("tasks")
+        if not isinstance(tasks, list) or not tasks:
+            return f"{where}.tasks must be a non-empty list, got {tasks!r}"
+        for i, t in enumerate(tasks):
+            if not isinstance(t, dict) or not point(t.get("position")):
+                return f"{where}.tasks[{i}].position must be [x, y], got {t!r}"
+    return None
 
 
 class SECS(Behavior):
@@ -90,12 +131,20 @@ class SECS(Behavior):
     def __init__(self, master: int = 0, delta: float = 240.0, epsilon: float = 1e6, delta_close: float = 120.0,
                  v_max: float = 0.15, align_tol: float = 0.087, rendezvous_at: float | None = None,
                  delta_rv: float = 90.0, flock_at: float | None = None, flock_to: list | None = None,
-                 flock_speed: float = 0.05, task_prefix: str = "task"):
+                 flock_speed: float = 0.05, task_prefix: str = "task", schedule: dict | None = None,
+                 settle_max: float = 60.0, arrive_tol: float = 0.1):
         self.master, self.delta, self.epsilon, self.delta_close = master, delta, epsilon, delta_close
         self.v_max, self.align_tol = v_max, align_tol
         self.rendezvous_at, self.delta_rv = rendezvous_at, delta_rv
         self.flock_at, self.flock_to, self.flock_speed = flock_at, flock_to, flock_speed
         self.task_prefix = task_prefix
+        self.schedule, self.settle_max, self.arrive_tol = schedule, settle_max, arrive_tol
+        self.ph: int | None = None  # the phase followed (scheduled runs only)
+        self.stage: str | None = None  # the master's BMU stage, slot, and since when (s)
+        self.slot = 0
+        self.stage_at = 0.0
+        self.arrived_at: float | None = None
+        self.stages: list = []  # [tick, slot (1-based), stage] at each change: the master's log
         self.heads: dict[int, float] = {}
         self.info: dict[int, tuple[int, dict]] = {}  # j -> (sent tick, SECS_T body)
         self.seen_by: dict[int, tuple[int, float, float]] = {}  # j -> (sent tick, ∠M_ji, ∠O_ij)
@@ -120,6 +169,15 @@ class SECS(Behavior):
         for key in ("delta", "delta_close", "delta_rv", "epsilon", "v_max", "align_tol"):
             if key in params and not (_finite(params[key]) and params[key] > 0):
                 return f"{key} must be a positive number, got {params[key]!r}"
+        for key in ("settle_max", "arrive_tol"):
+            if key in params and not (_finite(params[key]) and params[key] > 0):
+                return f"{key} must be a positive number, got {params[key]!r}"
+        if params.get("schedule") is not None:
+            problem = schedule_problem(params["schedule"])
+            if problem:
+                return problem
+            if params.get("flock_at") is not None or params.get("rendezvous_at") is not None:
+                return "schedule drives flocking and rendez-vous: give no flock_at / rendezvous_at with it"
         ft = params.get("flock_to")
         if ft is not None and not (isinstance(ft, list) and len(ft) == 2 and all(_finite(x) for x in ft)):
             return f"flock_to must be [x, y], got {ft!r}"
@@ -180,7 +238,12 @@ class SECS(Behavior):
         self.heads[tick] = float(ctx.pose[-1])
         self.heads.pop(tick - 2 * STALE, None)
         nb = self._neighbours(ctx, sensed)
-        body = self._master_tick(ctx, nb) if ctx.id == self.master else self._backbone_tick(ctx, nb)
+        if ctx.id != self.master:
+            body = self._backbone_tick(ctx, nb)
+        elif self.schedule is not None:
+            body = self._bmu_tick(ctx, nb)
+        else:
+            body = self._master_tick(ctx, nb)
         ctx.move(list(self.v))
         body["v"] = [round(self.v[0], 6), round(self.v[1], 6)]
         ctx.broadcast(T_KIND, body)
@@ -208,26 +271,92 @@ class SECS(Behavior):
                     self.v = rules.clip((dx * 10, dy * 10), self.flock_speed)
         return body
 
+    def _enter(self, ctx, stage: str, slot: int) -> None:
+        self.ph = 0 if self.ph is None else self.ph + 1
+        self.stage, self.slot, self.stage_at, self.arrived_at = stage, slot, ctx.tick * ctx.dt, None
+        self.stages.append([ctx.tick, slot + 1, stage])
+
+    def _bmu_tick(self, ctx, nb) -> dict:
+        """The master as the BMU of §III-C: its schedule's slots in order, one stage at a time (rules.bmu_next)."""
+        now = ctx.tick * ctx.dt
+        x, y = float(ctx.position[0]), float(ctx.position[1])
+        slots = self.schedule["slots"]
+        if self.stage is None:
+            self._enter(ctx, "flocking", 0)
+        tx, ty = slots[self.slot]["deployment"]
+        if self.stage == "flocking" and self.arrived_at is None and math.hypot(tx - x, ty - y) <= self.arrive_tol:
+            self.arrived_at = now
+        size = self.schedule.get("robots")
+        stage, slot = rules.bmu_next(
+            self.stage, self.slot, now - self.stage_at, last=self.slot == len(slots) - 1,
+            duration=float(slots[self.slot]["duration"]), gathered=size is not None and len(nb) >= size - 1,
+            waited=None if self.arrived_at is None else now - self.arrived_at, settle_max=self.settle_max)
+        if (stage, slot) != (self.stage, self.slot):
+            self._enter(ctx, stage, slot)
+        self.mode = self.stage
+        body = {"a": -1, "T": [], "al": True, "d": 0.0, "ph": self.ph}
+        self.v = (0.0, 0.0)  # the master stays in the swarm, but while it leads the flock
+        if self.stage == "flocking":
+            body["fl"] = 1
+            tx, ty = slots[self.slot]["deployment"]
+            if math.hypot(tx - x, ty - y) > 0.05:
+                self.v = rules.clip(((tx - x) * 10, (ty - y) * 10), self.flock_speed)
+        elif self.stage == "secs":
+            tasks = [t["position"] for t in slots[self.slot]["tasks"]]
+            body["T"] = [rules.wrap(math.atan2(p[1] - y, p[0] - x)) for p in tasks]
+            self.probs = rules.arm_probabilities([math.hypot(p[0] - x, p[1] - y) for p in tasks])
+            body["p"] = self.probs
+        else:
+            self.rv = self.delta_rv
+            body["rv"] = self.delta_rv
+        return body
+
+    def _follow_phase(self, ctx, phased: list) -> None:
+        """Adopt the highest phase heard, if newer than ours: its mode, and at an eruption a new arm."""
+        best = max(phased, key=lambda b: b["ph"], default=None)
+        if best is None or (self.ph is not None and best["ph"] <= self.ph):
+            return
+        self.ph, self.arm, self.probs, self.rv = best["ph"], None, None, None
+        self.target, self.aligned, self.informer = None, False, None
+        if best.get("rv") is not None:
+            self.mode, self.rv = "rendezvous", float(best["rv"])
+        elif best.get("fl"):
+            self.mode = "flocking"
+        else:
+            self.mode = "secs"
+            if best.get("p"):
+                self.probs = list(best["p"])
+                self.arm = rules.draw_arm(self.probs, float(ctx.rng.random()))
+
     def _backbone_tick(self, ctx, nb) -> dict:
         fresh = {j: b for j in nb if (b := self._fresh(ctx, j)) is not None}
         ds = [b["d"] + nb[j][0] for j, b in fresh.items() if b.get("d") is not None]
         self.dist = min(ds, default=math.inf)
-        for b in fresh.values():
-            if b.get("p") and self.probs is None:
-                self.probs = list(b["p"])
-                self.arm = rules.draw_arm(self.probs, float(ctx.rng.random()))
-            if b.get("rv") is not None:
-                self.mode, self.rv = "rendezvous", float(b["rv"])
-            elif b.get("fl") and self.mode == "secs":
-                self.mode = "flocking"
+        phased = [b for b in fresh.values() if b.get("ph") is not None]
+        if phased or self.ph is not None:  # a scheduled run: follow the master's phases
+            self._follow_phase(ctx, phased)
+            fresh = {j: b for j, b in fresh.items() if b.get("ph") == self.ph}
+        else:
+            for b in fresh.values():
+                if b.get("p") and self.probs is None:
+                    self.probs = list(b["p"])
+                    self.arm = rules.draw_arm(self.probs, float(ctx.rng.random()))
+                if b.get("rv") is not None:
+                    self.mode, self.rv = "rendezvous", float(b["rv"])
+                elif b.get("fl") and self.mode == "secs":
+                    self.mode = "flocking"
         body = {"a": self.arm if self.arm is not None else 0,
                 "T": None, "al": False, "d": None if math.isinf(self.dist) else round(self.dist, 6)}
+        if self.ph is not None:
+            body["ph"] = self.ph
         if self.probs is not None:
             body["p"] = self.probs
         if self.mode == "rendezvous":
             body["rv"] = self.rv
             self.target, self.aligned = None, False
-            self.v = rules.lj_velocity(list(nb.values()), self.rv, self.v_max, self.epsilon)
+            up = [(b["d"] + nb[j][0], j) for j, b in fresh.items() if b.get("d") is not None]
+            parent = min(up)[1] if up else None
+            self.v = rules.lj_velocity(rules.gather_pulls(nb, parent, self.rv), self.rv, self.v_max, self.epsilon)
             return body
         if self.mode == "flocking":
             body["fl"] = 1
@@ -292,7 +421,7 @@ class SECS(Behavior):
         return {"arm": self.arm, "target": self.target, "aligned": self.aligned, "informer": self.informer,
                 "dist": None if math.isinf(self.dist) else self.dist, "mode": self.mode, "odo": self.odo,
                 "at": self.at, "first_aligned": self.first_aligned, "lost_alignment": self.realigned,
-                "refused": dict(self.refused), "master": self.master}
+                "refused": dict(self.refused), "master": self.master, "ph": self.ph, "stages": self.stages}
 
     @classmethod
     def metrics(cls, reports) -> dict:

@@ -6,6 +6,9 @@
   value: the latency in seconds of the last task reached.
 - ``secs.angle``: ∠T of each aligned robot, turned into the world frame, against the true direction from
   the master to its arm's task; value: the largest error (rad).
+- ``secs.slots`` (scenario use "protocols.secs.oracle:slots" until the entry point is installed): in a run
+  driven by the master's schedule (§III-C), every task of every slot is reached during its own slot's
+  eruption; ``slot_times`` gives per slot when each task was reached and how regrouped the swarm was.
 
 Collisions are ``world.no_collisions`` (10 cm bodies).
 """
@@ -142,3 +145,62 @@ def angle(result: Result, bound: float = 0.05) -> Outcome:
     worst = max(errs.values(), default=0.0)
     return Outcome("secs.angle", bool(errs) and worst <= bound, round(worst, 6), bound,
                    f"{len(errs)} aligned robots judged", op="<=")
+
+
+def schedule_of(result: Result) -> dict | None:
+    """The ``schedule`` parameter of the master's ``secs`` behaviour (the TSC's task subsets), or None."""
+    for g in result["scenario"]["robots"]:
+        for spec in g["behaviors"]:
+            if spec.get("as") == "secs" and spec.get("schedule"):
+                return spec["schedule"]
+    return None
+
+
+def slot_times(result: Result, tol: float = 0.5) -> list[dict]:
+    """Per slot of a scheduled run (§III-C), from the master's stage log and the true positions.
+
+    Each slot: ``start``/``end`` (s) of its eruption (from the master's switch to "secs" to its rendez-vous,
+    or the end of the run), ``reached`` {task id: seconds after ``start`` when a backbone robot first came
+    within ``tol`` m of it in that window, or None}, and ``spread``: the largest distance of a robot from the
+    master when the eruption began (the swarm regrouped: at most the master's range).
+    """
+    sch, master = schedule_of(result), _master(result)
+    dt = float(result["scenario"]["run"]["dt"])
+    stages = result.reports("secs").get(master, {}).get("stages") or []
+    starts = {slot: tick for tick, slot, stage in stages if stage == "secs"}
+    ends = {slot: tick for tick, slot, stage in stages if stage == "rendezvous"}
+    out, wins = [], []
+    for k, slot in enumerate((sch or {}).get("slots", []), start=1):
+        row = {"slot": k, "start": None, "end": None, "spread": None,
+               "reached": {str(t.get("id", i)): None for i, t in enumerate(slot["tasks"])}}
+        if k in starts:
+            row["start"] = round(starts[k] * dt, 6)
+            row["end"] = round(ends[k] * dt, 6) if k in ends else None
+            wins.append((starts[k], ends.get(k, math.inf), row, [np.array(t["position"], dtype=float)
+                                                                 for t in slot["tasks"]]))
+        out.append(row)
+    for rec in result.records():
+        ids, pos = _pos(rec)
+        if master not in ids:
+            continue
+        at_master = pos[ids.index(master)]
+        back = pos[[k for k, i in enumerate(ids) if i != master]]
+        for a, b, row, tasks in wins:
+            if rec["t"] == a:
+                row["spread"] = round(float(np.max(np.linalg.norm(pos - at_master, axis=1))), 3)
+            if not a <= rec["t"] < b or not len(back):
+                continue
+            for name, p in zip(row["reached"], tasks, strict=True):
+                if row["reached"][name] is None and np.min(np.linalg.norm(back - p, axis=1)) <= tol:
+                    row["reached"][name] = round((rec["t"] - a) * dt, 6)
+    return out
+
+
+def slots(result: Result, tol: float = 0.5) -> Outcome:
+    """Every task of every slot of the master's schedule is reached during its own slot's eruption."""
+    rows = slot_times(result, tol)
+    missed = [f"{r['slot']}:{t}" for r in rows for t, v in r["reached"].items() if v is None]
+    detail = "; ".join(f"slot {r['slot']} from {r['start']} s (spread {r['spread']} m): "
+                       + ", ".join(f"{t} {v} s" for t, v in r["reached"].items()) for r in rows)
+    return Outcome("secs.slots", bool(rows) and not missed, len(missed), 0,
+                   (f"missed {missed}; " if missed else "") + (detail or "no schedule"), op="<=")

@@ -171,3 +171,44 @@ def pick_informer(sees_master: bool, candidates: Sequence[tuple[int, float]], ow
         if d < own and d > best_d:
             best, best_d = rid, d
     return best
+
+
+def bmu_next(stage: str, slot: int, elapsed: float, *, last: bool, duration: float, waited: float | None,
+             gathered: bool, settle_max: float) -> tuple[str, int]:
+    """The BMU's next (stage, slot) after one tick (seed 003 §III-C: flock → erupt → rendez-vous, per slot).
+
+    ``stage`` is "flocking" (to the slot's deployment point), "secs" (its prominences erupt) or "rendezvous";
+    ``elapsed`` the seconds spent in it, ``waited`` the seconds since the master reached the deployment point
+    (None while it is not there), ``gathered`` whether every robot of the swarm is within the master's range
+    (the "closed formation"). Flocking ends at the point once the swarm is gathered (or after ``settle_max`` s
+    there); the eruption after the slot's ``duration``; the rendez-vous once the swarm is gathered again (or
+    after ``settle_max`` s), then the next slot's flocking. The last rendez-vous never ends.
+    """
+    if stage == "flocking":
+        if waited is not None and (gathered or waited >= settle_max):
+            return "secs", slot
+    elif stage == "secs":
+        if elapsed >= duration:
+            return "rendezvous", slot
+    elif stage == "rendezvous":
+        if not last and (gathered or elapsed >= settle_max):
+            return "flocking", slot + 1
+    else:
+        raise ValueError(f"unknown stage {stage!r}")
+    return stage, slot
+
+
+def gather_pulls(neighbours: dict[int, tuple[float, float]], parent: int | None,
+                 delta_rv: float) -> list[tuple[float, float]]:
+    """The (distance, bearing) pairs a robot feels during a rendez-vous (§III-B-4 with δ_rv, as read here).
+
+    Its parent (the neighbour through which it is nearest the master along the swarm) and the robots closer
+    than δ_rv, which only repel. The printed rule (Lennard-Jones of every neighbour) breaks stretched arms: far
+    from δ the attraction falls as d⁻³, so a robot of an arm follows its nearer neighbour and the link to
+    the farther one stretches past the range. Moving towards the parent cannot lengthen a link to a child:
+    the child closes in at full speed while the parent moves at most as fast.
+    """
+    out = [nb for j, nb in sorted(neighbours.items()) if nb[0] * 100.0 < delta_rv and j != parent]
+    if parent is not None and parent in neighbours:
+        out.insert(0, neighbours[parent])
+    return out

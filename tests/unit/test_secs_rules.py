@@ -182,3 +182,92 @@ def test_behaviour_refuses_and_counts_bad_frames():
     b.on_frame(ctx, Frame(src=2, kind="SECS_M", body={"M": [[7, 1.0]]}, seq=4, sent=3, rab=(1.0, 0.2)))
     assert b.seen_by[2] == (3, 1.0, pytest.approx(0.2))
     assert b.report()["refused"] == {"angle": 2, "malformed": 1}
+
+
+# ------------------------------------------------------------------------------------ the BMU's sequence (§III-C)
+def _bmu(stage, slot, elapsed=0.0, *, last=False, duration=30.0, waited=None, gathered=False, settle_max=60.0):
+    return rules.bmu_next(stage, slot, elapsed, last=last, duration=duration, waited=waited, gathered=gathered,
+                          settle_max=settle_max)
+
+
+def test_bmu_flocks_until_the_point_is_reached_in_closed_formation():
+    assert _bmu("flocking", 0, 99.0, gathered=True) == ("flocking", 0)  # not at the point yet
+    assert _bmu("flocking", 0, waited=0.0, gathered=False) == ("flocking", 0)  # there, swarm not gathered
+    assert _bmu("flocking", 0, waited=0.0, gathered=True) == ("secs", 0)
+    assert _bmu("flocking", 2, waited=60.0, gathered=False) == ("secs", 2)  # a lost robot does not block it
+
+
+def test_bmu_erupts_for_the_slot_duration_then_regroups_and_moves_on():
+    assert _bmu("secs", 0, 29.9, duration=30.0) == ("secs", 0)
+    assert _bmu("secs", 0, 30.0, duration=30.0) == ("rendezvous", 0)
+    assert _bmu("rendezvous", 0, 1.0, gathered=False) == ("rendezvous", 0)
+    assert _bmu("rendezvous", 0, 1.0, gathered=True) == ("flocking", 1)
+    assert _bmu("rendezvous", 0, 60.0, gathered=False) == ("flocking", 1)
+    assert _bmu("rendezvous", 3, 999.0, gathered=True, last=True) == ("rendezvous", 3)  # the end: stay together
+    with pytest.raises(ValueError):
+        _bmu("dance", 0)
+
+
+def test_bmu_walks_a_whole_schedule_in_order():
+    durations, seen, stage, slot, t, since = [20.0, 10.0, 5.0], [], "flocking", 0, 0.0, 0.0
+    while t < 500:
+        at_point = t - since >= 7.0 if stage == "flocking" else False  # the flight takes 7 s
+        nxt = rules.bmu_next(stage, slot, t - since, last=slot == 2, duration=durations[slot],
+                             waited=(t - since - 7.0) if at_point else None, gathered=True, settle_max=60.0)
+        if nxt != (stage, slot):
+            stage, slot, since = *nxt, t
+            seen.append((round(t, 1), slot, stage))
+        t += 0.1
+    assert [(s, st) for _, s, st in seen] == [(0, "secs"), (0, "rendezvous"), (1, "flocking"), (1, "secs"),
+                                             (1, "rendezvous"), (2, "flocking"), (2, "secs"), (2, "rendezvous")]
+    assert seen[1][0] == pytest.approx(27.0, abs=0.15)  # 7 s flight + 20 s eruption
+
+
+def _contract(rule, pts, ticks=600, dt=0.1, vmax=0.15, rv=90.0):
+    """A chain of robots (0 = the master, still) contracting for ``ticks``; returns the longest chain link seen."""
+    pts = np.array(pts, dtype=float)
+    worst = 0.0
+    for _ in range(ticks):
+        vel = np.zeros_like(pts)
+        for i in range(1, len(pts)):
+            nb = {j: (float(np.linalg.norm(pts[j] - pts[i])),
+                      math.atan2(*(pts[j] - pts[i])[::-1])) for j in range(len(pts))
+                  if j != i and np.linalg.norm(pts[j] - pts[i]) <= 3.0}
+            parent = i - 1 if i - 1 in nb else None
+            pulls = rules.gather_pulls(nb, parent, rv) if rule == "parent" else list(nb.values())
+            vel[i] = rules.lj_velocity(pulls, rv, vmax)
+        pts += vel * dt
+        worst = max(worst, max(float(np.linalg.norm(pts[i] - pts[i - 1])) for i in range(1, len(pts))))
+    return worst, pts
+
+
+def test_rendezvous_towards_the_parent_keeps_a_stretched_arm_connected():
+    """The arm of a real run at its rendez-vous (links 2.1–2.7 m): LJ of every neighbour breaks it."""
+    arm = [[0.9, 0.2], [-0.2, 2.0], [-1.5, 4.1], [-2.2, 6.2]]
+    assert _contract("all", arm)[0] > 3.0
+    worst, end = _contract("parent", arm)
+    assert worst <= 2.8
+    # and it gathered: links at δ_rv = 0.9 m, the whole arm within the master's 3 m range
+    assert max(float(np.linalg.norm(p - end[0])) for p in end) < 3.0
+
+
+def test_gather_pulls_are_the_parent_and_the_too_close():
+    nb = {3: (2.5, 0.0), 5: (0.5, 1.0), 7: (2.0, 2.0)}
+    assert rules.gather_pulls(nb, 3, 90.0) == [(2.5, 0.0), (0.5, 1.0)]
+    assert rules.gather_pulls(nb, None, 90.0) == [(0.5, 1.0)]
+
+
+def test_schedule_parameter_is_validated():
+    from protocols.secs.behavior import schedule_problem
+
+    ok = {"robots": 4, "slots": [{"deployment": [0.0, 0.0], "duration": 10.0,
+                                  "tasks": [{"id": "a", "position": [1.0, 1.0]}]}]}
+    assert schedule_problem(ok) is None
+    assert SECS.validate({"schedule": ok}) is None
+    assert "no flock_at" in SECS.validate({"schedule": ok, "flock_at": 3.0})
+    assert "slots[0].duration" in schedule_problem({"slots": [{**ok["slots"][0], "duration": -1}]})
+    assert "slots[0].tasks" in schedule_problem({"slots": [{**ok["slots"][0], "tasks": []}]})
+    assert "robots" in schedule_problem({**ok, "robots": 1})
+    assert "non-empty" in schedule_problem({"slots": []})
+    assert parse_t({"a": 0, "T": None, "d": 1.0, "ph": -1})[1] == "malformed"
+    assert parse_t({"a": 0, "T": None, "d": 1.0, "ph": 3})[1] is None
