@@ -6,9 +6,9 @@
   value: the latency in seconds of the last task reached.
 - ``secs.angle``: ∠T of each aligned robot, turned into the world frame, against the true direction from
   the master to its arm's task; value: the largest error (rad).
-- ``secs.slots`` (scenario use "protocols.secs.oracle:slots" until the entry point is installed): in a run
-  driven by the master's schedule (§III-C), every task of every slot is reached during its own slot's
-  eruption; ``slot_times`` gives per slot when each task was reached and how regrouped the swarm was.
+- ``secs.slots``: in a run driven by the master's schedule (§III-C), every task of every slot is reached
+  during its own slot's eruption; ``slot_times`` gives per slot when each task was reached and how regrouped
+  the swarm was.
 
 Collisions are ``world.no_collisions`` (10 cm bodies).
 """

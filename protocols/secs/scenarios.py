@@ -156,7 +156,7 @@ def sequence_scenario(sequence, *, scale: float | None = None, time_unit: float 
                    {"positions": cluster(sequence["robots"] - 1), "sensing_frame": "local", **common,
                     "behaviors": [{"use": "secs", "delta": delta, **params}]}],
         "checks": checks if checks is not None else [
-            {"use": "secs.connected"}, {"use": "world.no_collisions"}, {"use": "protocols.secs.oracle:slots"}],
+            {"use": "secs.connected"}, {"use": "world.no_collisions"}, {"use": "secs.slots"}],
     }
 
 
