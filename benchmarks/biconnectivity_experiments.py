@@ -607,7 +607,8 @@ def coverage_trial(params: dict, *, seed: int, trial: int) -> dict:
     import logging
 
     logging.getLogger().setLevel(logging.ERROR)
-    return emulated_experiment(float(params["cr"]), "heuristic", trial + 1, episodes=int(params["episodes"]))
+    return emulated_experiment(float(params["cr"]), params.get("method", "heuristic"), trial + 1,
+                               episodes=int(params["episodes"]))
 
 
 def coverage_figures(csv_path: Path, out_dir: Path) -> list[Path]:
@@ -615,9 +616,10 @@ def coverage_figures(csv_path: Path, out_dir: Path) -> list[Path]:
     from swarmactors.sweep import returned_values
 
     runs = returned_values(csv_path)
-    out = {f"cr{int(cr)}_heuristic": summarise_emulated([r for r in runs if r["cr"] == cr])
-           for cr in sorted({r["cr"] for r in runs})}
-    out["paper"] = {"cr4_heuristic": PAPER["coverage_cr4"], "cr2_heuristic": PAPER["coverage_cr2"]}
+    out = {f"cr{int(cr)}_{m}": summarise_emulated([r for r in runs if r["cr"] == cr and r["method"] == m])
+           for cr, m in sorted({(r["cr"], r["method"]) for r in runs})}
+    out["paper"] = {"cr4_heuristic": PAPER["coverage_cr4"], "cr2_heuristic": PAPER["coverage_cr2"],
+                    "cr2_min_intersection": PAPER["coverage_cr2_min_intersection"]}
     path = Path(out_dir) / "coverage.json"
     path.write_text(json.dumps(out, indent=1, default=float))
     return [path]
@@ -634,7 +636,7 @@ def ci95(vals) -> tuple[float, float]:
 
 
 def emulated_coverage(quick: bool, reps: dict[float, int], jobs: int = 2, episodes: int = 100,
-                      runs_file: Path | None = None, run: bool = True) -> dict:
+                      runs_file: Path | None = None, run: bool = True, method: str = "heuristic") -> dict:
     """The coverage experiment through the emulator: R independent experiments per cr, each ``episodes`` long.
 
     The experiments of the cr values are interleaved; each finished one is appended to ``runs_file`` (JSON
@@ -643,7 +645,7 @@ def emulated_coverage(quick: bool, reps: dict[float, int], jobs: int = 2, episod
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     eps = 20 if quick else episodes
-    todo = [(float(cr), "heuristic", s, eps) for s in range(1, max(reps.values()) + 1) for cr, r in reps.items()
+    todo = [(float(cr), method, s, eps) for s in range(1, max(reps.values()) + 1) for cr, r in reps.items()
             if s <= (2 if quick else r)]
     done: dict[tuple, dict] = {}
     if runs_file is not None and runs_file.exists():
@@ -663,8 +665,9 @@ def emulated_coverage(quick: bool, reps: dict[float, int], jobs: int = 2, episod
     out: dict = {"wall_s": round(time.perf_counter() - t0, 1)}
     for cr in reps:
         runs = [done[a] for a in todo if a[0] == float(cr) and a in done]
-        out[f"cr{int(cr)}_heuristic"] = summarise_emulated(runs)
-    out["paper"] = {"cr4_heuristic": PAPER["coverage_cr4"], "cr2_heuristic": PAPER["coverage_cr2"]}
+        out[f"cr{int(cr)}_{method}"] = summarise_emulated(runs)
+    out["paper"] = {"cr4_heuristic": PAPER["coverage_cr4"], "cr2_heuristic": PAPER["coverage_cr2"],
+                    "cr2_min_intersection": PAPER["coverage_cr2_min_intersection"]}
     return out
 
 
@@ -795,6 +798,9 @@ def main() -> None:
                     default=None)
     ap.add_argument("--reps", default="2:16,4:8", help="emulated coverage: experiments per cr, 'cr:R,cr:R'")
     ap.add_argument("--jobs", type=int, default=2, help="worker processes for the emulated coverage")
+    ap.add_argument("--method", default="heuristic", choices=["heuristic", "min_intersection"],
+                    help="emulated coverage: the joiner's placement (results under emulated_coverage_<method> "
+                         "unless heuristic)")
     ap.add_argument("--aggregate", action="store_true",
                     help="emulated coverage: summarise the finished experiments in --runs, run nothing")
     ap.add_argument("--runs", default=str(ROOT / "out" / "biconnectivity_emulated_runs.jsonl"),
@@ -816,9 +822,9 @@ def main() -> None:
     if args.only in (None, "emulated"):
         print("coverage through the emulator:")
         reps = {float(a): int(b) for a, b in (x.split(":") for x in args.reps.split(","))}
-        data["emulated_coverage"] = emulated_coverage(args.quick, reps, args.jobs,
-                                                      runs_file=Path(args.runs) if args.runs else None,
-                                                      run=not args.aggregate)
+        key = "emulated_coverage" + ("" if args.method == "heuristic" else f"_{args.method}")
+        data[key] = emulated_coverage(args.quick, reps, args.jobs, runs_file=Path(args.runs) if args.runs else None,
+                                      run=not args.aggregate, method=args.method)
     if args.only in (None, "loss"):
         print("the check under loss:")
         data["loss"] = loss_sweep(args.quick)
