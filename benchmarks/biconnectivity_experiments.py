@@ -1,7 +1,8 @@
 #!/usr/bin/env python
 """Ahmadi & Stone's biconnectivity: our numbers beside the paper's.
 
-    python benchmarks/biconnectivity_experiments.py [--quick] [--only messages|coverage|loss]
+    python benchmarks/biconnectivity_experiments.py [--quick]
+        [--only messages|coverage|emulated|loss|loss-repeat|loss-agree]
         [--img docs/img] [--out benchmarks/results/biconnectivity.json]
 
 1. **Message counts** (emulator runs, lockstep, no loss): per robot and period, the CR frames sent, relayed
@@ -17,7 +18,9 @@
    (``join_position``, ``removal_distance``, ``prox``) with exact positions; the distributed check is
    replaced by its oracle (``paper_biconnected``), which the conformance tests show it equals.
 3. **Loss** (the paper assumes reliable links): how often the check's verdict is wrong or missing as the
-   per-frame loss p grows (emulator runs).
+   per-frame loss p grows (emulator runs), with the paper's rule, repeated fills (R13, ``repeat = 2``) and a
+   verdict only after two agreeing periods (R15, ``agree = 2``; ``--only loss-agree``, which also measures
+   the three modes' traffic and verdict latency).
 
 Plots go to ``docs/img/biconnectivity-*.png``; all numbers to the JSON file.
 
@@ -67,12 +70,16 @@ PAPER = {"messages_35": 69, "coverage_cr4": 0.91, "coverage_cr2": 0.73, "coverag
 
 # ================================================================ emulator runs
 def run_check(positions, n_max: int, loss: float = 0.0, seed: int = 1, budget: int = 10**7, initiator: int = 0,
-              repeat: int = 1):
+              repeat: int = 1, agree: int = 1, max_periods: int = 4):
     beh = {"use": "biconnectivity", "N": n_max, "c": 1, "initiator": initiator, "at": 1, "hello": 0,
            "budget": budget}
     if repeat != 1:
         beh["repeat"] = repeat  # R13
-    sc = {"run": {"name": "bic-exp", "seed": seed, "ticks": 6 * n_max + 8, "trace": True},
+    ticks = 6 * n_max + 8
+    if agree != 1:
+        beh.update(agree=agree, max_periods=max_periods)  # R15
+        ticks = max_periods * (6 * n_max + 2) + 8
+    sc = {"run": {"name": "bic-exp", "seed": seed, "ticks": ticks, "trace": True},
           "radio": {"range": 1.0, "latency": 1, "loss": loss},
           "robots": [{"positions": [list(map(float, p)) for p in positions], "behaviors": [beh]}]}
     sc = resolve_scenario(sc, "<experiment>")
@@ -600,7 +607,8 @@ def coverage_trial(params: dict, *, seed: int, trial: int) -> dict:
     import logging
 
     logging.getLogger().setLevel(logging.ERROR)
-    return emulated_experiment(float(params["cr"]), "heuristic", trial + 1, episodes=int(params["episodes"]))
+    return emulated_experiment(float(params["cr"]), params.get("method", "heuristic"), trial + 1,
+                               episodes=int(params["episodes"]))
 
 
 def coverage_figures(csv_path: Path, out_dir: Path) -> list[Path]:
@@ -608,9 +616,10 @@ def coverage_figures(csv_path: Path, out_dir: Path) -> list[Path]:
     from swarmactors.sweep import returned_values
 
     runs = returned_values(csv_path)
-    out = {f"cr{int(cr)}_heuristic": summarise_emulated([r for r in runs if r["cr"] == cr])
-           for cr in sorted({r["cr"] for r in runs})}
-    out["paper"] = {"cr4_heuristic": PAPER["coverage_cr4"], "cr2_heuristic": PAPER["coverage_cr2"]}
+    out = {f"cr{int(cr)}_{m}": summarise_emulated([r for r in runs if r["cr"] == cr and r["method"] == m])
+           for cr, m in sorted({(r["cr"], r["method"]) for r in runs})}
+    out["paper"] = {"cr4_heuristic": PAPER["coverage_cr4"], "cr2_heuristic": PAPER["coverage_cr2"],
+                    "cr2_min_intersection": PAPER["coverage_cr2_min_intersection"]}
     path = Path(out_dir) / "coverage.json"
     path.write_text(json.dumps(out, indent=1, default=float))
     return [path]
@@ -627,7 +636,7 @@ def ci95(vals) -> tuple[float, float]:
 
 
 def emulated_coverage(quick: bool, reps: dict[float, int], jobs: int = 2, episodes: int = 100,
-                      runs_file: Path | None = None, run: bool = True) -> dict:
+                      runs_file: Path | None = None, run: bool = True, method: str = "heuristic") -> dict:
     """The coverage experiment through the emulator: R independent experiments per cr, each ``episodes`` long.
 
     The experiments of the cr values are interleaved; each finished one is appended to ``runs_file`` (JSON
@@ -636,7 +645,7 @@ def emulated_coverage(quick: bool, reps: dict[float, int], jobs: int = 2, episod
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     eps = 20 if quick else episodes
-    todo = [(float(cr), "heuristic", s, eps) for s in range(1, max(reps.values()) + 1) for cr, r in reps.items()
+    todo = [(float(cr), method, s, eps) for s in range(1, max(reps.values()) + 1) for cr, r in reps.items()
             if s <= (2 if quick else r)]
     done: dict[tuple, dict] = {}
     if runs_file is not None and runs_file.exists():
@@ -656,8 +665,9 @@ def emulated_coverage(quick: bool, reps: dict[float, int], jobs: int = 2, episod
     out: dict = {"wall_s": round(time.perf_counter() - t0, 1)}
     for cr in reps:
         runs = [done[a] for a in todo if a[0] == float(cr) and a in done]
-        out[f"cr{int(cr)}_heuristic"] = summarise_emulated(runs)
-    out["paper"] = {"cr4_heuristic": PAPER["coverage_cr4"], "cr2_heuristic": PAPER["coverage_cr2"]}
+        out[f"cr{int(cr)}_{method}"] = summarise_emulated(runs)
+    out["paper"] = {"cr4_heuristic": PAPER["coverage_cr4"], "cr2_heuristic": PAPER["coverage_cr2"],
+                    "cr2_min_intersection": PAPER["coverage_cr2_min_intersection"]}
     return out
 
 
@@ -700,27 +710,39 @@ def summarise_emulated(runs: list[dict]) -> dict:
 
 
 # ================================================================ loss
-def loss_sweep(quick: bool, repeat: int = 1) -> dict:
+def loss_sweep(quick: bool, repeat: int = 1, agree: int = 1, ps: list[float] | None = None) -> dict:
+    """Verdicts of every check-running robot under loss, with their cost.
+
+    Cost per row: ``frames_per_robot`` (every frame the robots sent, all kinds, per robot and run) and
+    ``latency`` (mean time from the request to a robot's verdict, over the robots that decided; ticks).
+    """
     graphs = {
         "ring8": (ring(8), True),
         "ladder2x4": (np.array([[S * i, 0.0] for i in range(4)] + [[S * i, S] for i in range(4)]), True),
         "bowtie": (np.array([[0.0, 0.0], [-0.8, 0.45], [-0.8, -0.45], [0.8, 0.45], [0.8, -0.45]]), False),
         "path5": (np.array([[S * i, 0.0] for i in range(5)]), False),
     }
-    ps = [0.0, 0.01, 0.05, 0.1, 0.2, 0.3, 0.5]
+    ps = ps or [0.0, 0.01, 0.05, 0.1, 0.2, 0.3, 0.5]
     seeds = range(3 if quick else 10)
     rows = []
     for p in ps:
         agg = {"p": p, "checks": 0, "correct": 0, "wrong": 0, "missing": 0, "wrong_true": 0, "wrong_false": 0,
                "checks_on_biconnected": 0, "wrong_on_biconnected": 0, "missing_on_biconnected": 0,
                "checks_on_not_biconnected": 0, "wrong_on_not_biconnected": 0, "missing_on_not_biconnected": 0}
+        frames, latency, periods = [], [], []
         for pts, truth in graphs.values():
             for seed in seeds:
-                result, _, _ = run_check(pts, n_max=max(len(pts), 3), loss=p, seed=seed, repeat=repeat)
+                result, _, _ = run_check(pts, n_max=max(len(pts), 3), loss=p, seed=seed, repeat=repeat,
+                                         agree=agree)
                 assert result["stop_reason"] is None
+                frames.append(result["world"]["frames_sent"] / len(pts))
                 cls = "biconnected" if truth else "not_biconnected"
                 for rep in result.reports("biconnectivity").values():
                     for ck in rep["checks"]:
+                        if ck["decided"] is not None and ck["verdict"] is not None:
+                            latency.append(ck["decided"] - ck["requested"])
+                        if "rounds" in ck:
+                            periods.append(len(ck["rounds"]))
                         agg["checks"] += 1
                         agg[f"checks_on_{cls}"] += 1
                         if ck["verdict"] is None:
@@ -732,15 +754,20 @@ def loss_sweep(quick: bool, repeat: int = 1) -> dict:
                             agg["wrong"] += 1
                             agg[f"wrong_on_{cls}"] += 1
                             agg["wrong_true" if ck["verdict"] else "wrong_false"] += 1
+        agg["frames_per_robot"] = round(float(np.mean(frames)), 1)
+        agg["latency"] = round(float(np.mean(latency)), 1) if latency else None
+        if periods:
+            agg["periods"] = round(float(np.mean(periods)), 2)
         rows.append(agg)
         print(f"  loss p={p:.2f}: {agg}", flush=True)
-    return {"graphs": list(graphs), "seeds": len(seeds), "rows": rows, "repeat": repeat}
+    return {"graphs": list(graphs), "seeds": len(seeds), "rows": rows, "repeat": repeat, "agree": agree}
 
 
-def plot_loss(data: dict, path: Path, repeat2: dict | None = None) -> None:
-    """False verdicts and timeouts against the loss p; with ``repeat2``, the same with R13 (dashed lines)."""
-    fig, ax = plt.subplots(figsize=(7, 4.3), dpi=110)
-    for d, ls, tag in ((data, "-", "paper (repeat = 1)"), (repeat2, "--", "repeat = 2")):
+def plot_loss(data: dict, path: Path, repeat2: dict | None = None, agree2: dict | None = None) -> None:
+    """False verdicts and timeouts against the loss p; with R13 ``repeat2`` (dashed) and R15 ``agree2`` (dotted)."""
+    fig, ax = plt.subplots(figsize=(7.5, 4.8), dpi=110)
+    for d, ls, tag in ((data, "-", "paper (repeat = 1)"), (repeat2, "--", "repeat = 2"),
+                       (agree2, ":", "agree = 2")):
         if d is None:
             continue
         rows = d["rows"]
@@ -751,7 +778,7 @@ def plot_loss(data: dict, path: Path, repeat2: dict | None = None) -> None:
             ax.plot(p, [r[f"wrong_on_{cls}"] / k for r, k in zip(rows, n, strict=True)], "o" + ls, color=colour,
                     label=f"wrong verdict, {label} graphs, {tag}")
             ax.plot(p, [r[f"missing_on_{cls}"] / k for r, k in zip(rows, n, strict=True)], "x" + ls, color=colour,
-                    alpha=0.5, label=f"no verdict (timeout), {label} graphs, {tag}")
+                    alpha=0.5, label=f"no verdict (timeout; agree: no agreement), {label} graphs, {tag}")
     ax.set_xlabel("per-frame loss p")
     ax.set_ylabel("fraction of check-running robots")
     ax.set_title(f"The check under loss ({', '.join(data['graphs'])}; {data['seeds']} seeds)", fontsize=10)
@@ -767,9 +794,13 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="fewer graphs, seeds and runs")
     ap.add_argument("--img", default=str(ROOT / "docs" / "img"))
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "biconnectivity.json"))
-    ap.add_argument("--only", choices=["messages", "coverage", "emulated", "loss", "loss-repeat"], default=None)
+    ap.add_argument("--only", choices=["messages", "coverage", "emulated", "loss", "loss-repeat", "loss-agree"],
+                    default=None)
     ap.add_argument("--reps", default="2:16,4:8", help="emulated coverage: experiments per cr, 'cr:R,cr:R'")
     ap.add_argument("--jobs", type=int, default=2, help="worker processes for the emulated coverage")
+    ap.add_argument("--method", default="heuristic", choices=["heuristic", "min_intersection"],
+                    help="emulated coverage: the joiner's placement (results under emulated_coverage_<method> "
+                         "unless heuristic)")
     ap.add_argument("--aggregate", action="store_true",
                     help="emulated coverage: summarise the finished experiments in --runs, run nothing")
     ap.add_argument("--runs", default=str(ROOT / "out" / "biconnectivity_emulated_runs.jsonl"),
@@ -791,17 +822,23 @@ def main() -> None:
     if args.only in (None, "emulated"):
         print("coverage through the emulator:")
         reps = {float(a): int(b) for a, b in (x.split(":") for x in args.reps.split(","))}
-        data["emulated_coverage"] = emulated_coverage(args.quick, reps, args.jobs,
-                                                      runs_file=Path(args.runs) if args.runs else None,
-                                                      run=not args.aggregate)
+        key = "emulated_coverage" + ("" if args.method == "heuristic" else f"_{args.method}")
+        data[key] = emulated_coverage(args.quick, reps, args.jobs, runs_file=Path(args.runs) if args.runs else None,
+                                      run=not args.aggregate, method=args.method)
     if args.only in (None, "loss"):
         print("the check under loss:")
         data["loss"] = loss_sweep(args.quick)
     if args.only in (None, "loss", "loss-repeat"):
         print("the check under loss, initiating messages sent twice (repeat = 2, R13):")
         data["loss_repeat2"] = loss_sweep(args.quick, repeat=2)
+    if args.only in (None, "loss-agree"):
+        ps = [0.0, 0.05, 0.1, 0.2]
+        print("the check under loss, a verdict only after two agreeing periods (agree = 2, R15):")
+        data["loss_agree2"] = loss_sweep(args.quick, agree=2, ps=ps)
+        print("the cost of the paper's check and of repeat = 2 at the same losses:")
+        data["loss_cost"] = {f"repeat{r}": loss_sweep(args.quick, repeat=r, ps=ps) for r in (1, 2)}
     if "loss" in data:
-        plot_loss(data["loss"], img / "biconnectivity-loss.png", data.get("loss_repeat2"))
+        plot_loss(data["loss"], img / "biconnectivity-loss.png", data.get("loss_repeat2"), data.get("loss_agree2"))
     data.pop("wall_s", None)
     data["quick"] = args.quick
     data[f"wall_s_{args.only or 'all'}"] = round(time.perf_counter() - t0, 1)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """How much clock skew and loss the built-in protocols survive, judged by their own checks.
 
-    python benchmarks/robustness_sweep.py [--families flooding,roles,biconnectivity,stigmergy,cbaa]
+    python benchmarks/robustness_sweep.py [--families flooding,roles,biconnectivity,stigmergy,cbaa,flooding-remaining]
         [--seeds 2] [--jobs 2] [--no-realtime] [--out benchmarks/results/robustness.json]
 
 For each family, two of its quick conformance cases (the scenarios and the oracle checks the family ships,
@@ -18,7 +18,9 @@ A grid value passes when every seed's run (lockstep, seeds 1..S: ``run.seed``, w
 losses) passes all the case's checks; the walk stops at the first failing value, and the largest passing one
 is reported (the grid is assumed monotone beyond). Then a realtime spot check per family: its realtime quick
 case (if it has one) with the largest passing clock offset and drift at once.
-Results go to the JSON file; docs/robustness.md holds the table.
+A *variant* (``VARIANTS``) sweeps a family's cases with behaviour parameters changed: ``flooding-remaining``
+is flooding with ``lifetime = "remaining"`` (rule F1r). Results go to the JSON file; docs/robustness.md holds
+the table.
 """
 
 from __future__ import annotations
@@ -44,6 +46,10 @@ CASES = {  # family: (skew case, loss case, realtime case or None)
                   "stigmergy/rgg-12-s3-realtime"),
     "cbaa": ("cbaa/rgg-15-s1-tasks-8", "cbaa/rgg-15-s1-tasks-8", "cbaa/rgg-10-s2-realtime-loss-0.1"),
 }
+# variants: a family's cases with behaviour parameters changed (name: (family, parameters))
+VARIANTS = {"flooding-remaining": ("flooding", {"lifetime": "remaining"})}  # F1r: remaining lifetime, issue 23
+for _name, (_fam, _) in VARIANTS.items():
+    CASES[_name] = CASES[_fam]
 GRIDS = {
     "clock_offset": [0.1, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0],  # seconds, +- (dt = 1 s in every case but realtime)
     "clock_drift": [100.0, 1000.0, 10000.0, 50000.0, 100000.0],  # ppm, +-
@@ -52,14 +58,21 @@ GRIDS = {
 }
 
 
-def scenario(case_name: str, axis: str | None, value: float, seed: int) -> dict:
-    """The case's scenario (checks included) with one axis set to ``value``, run with ``seed``."""
+def scenario(case_name: str, axis: str | None, value: float, seed: int, params: dict | None = None) -> dict:
+    """The case's scenario (checks included) with one axis set to ``value``, run with ``seed``.
+
+    ``params``: behaviour parameters set on every behaviour of the case's family (a variant).
+    """
     from swarmactors.conformance import case_by_name, prepare
 
     fam, case = case_by_name(case_name.split("/")[0], case_name, "quick")
     raw = copy.deepcopy(prepare(fam, case, None))
     raw["run"]["seed"] = seed
     raw["run"]["trace"] = True
+    for group in raw["robots"]:
+        for beh in group.get("behaviors", []):
+            if params and beh.get("use") == fam.behavior:
+                beh.update(params)
     radio = raw.setdefault("radio", {})
     if axis in ("clock_offset", "clock_drift"):
         for group in raw["robots"]:
@@ -71,12 +84,13 @@ def scenario(case_name: str, axis: str | None, value: float, seed: int) -> dict:
     return raw
 
 
-def run_one(case_name: str, axis: str | None, value: float, seed: int, skew: dict | None = None) -> dict:
+def run_one(case_name: str, axis: str | None, value: float, seed: int, skew: dict | None = None,
+            params: dict | None = None) -> dict:
     """Run one scenario; its checks' outcome. ``skew``: clock offset and drift for the realtime spot check."""
     import swarmactors
 
     logging.getLogger().setLevel(logging.ERROR)
-    raw = scenario(case_name, axis, value, seed)
+    raw = scenario(case_name, axis, value, seed, params)
     for key, v in (skew or {}).items():
         for group in raw["robots"]:
             group[key] = [-v, v]
@@ -92,11 +106,11 @@ def run_one(case_name: str, axis: str | None, value: float, seed: int, skew: dic
                 "failed": failed, "wall_s": result["wall_s"], "cpu_s": round(time.process_time() - t0, 2)}
 
 
-def sweep_axis(pool, case_name: str, axis: str, seeds: int) -> dict:
+def sweep_axis(pool, case_name: str, axis: str, seeds: int, params: dict | None = None) -> dict:
     """Walk the axis's grid upwards until a value fails on some seed."""
     rows, best = [], 0.0
     for value in GRIDS[axis]:
-        futs = [pool.submit(run_one, case_name, axis, value, s) for s in range(1, seeds + 1)]
+        futs = [pool.submit(run_one, case_name, axis, value, s, None, params) for s in range(1, seeds + 1)]
         got = [f.result() for f in futs]
         rows += got
         ok = all(g["passed"] for g in got)
@@ -150,17 +164,18 @@ def main() -> None:
     with ProcessPoolExecutor(args.jobs) as pool:
         for fam in args.families.split(","):
             skew_case, loss_case, rt_case = CASES[fam]
-            base = [pool.submit(run_one, c, None, 0.0, s) for c in sorted({skew_case, loss_case})
+            params = VARIANTS.get(fam, (fam, None))[1]
+            base = [pool.submit(run_one, c, None, 0.0, s, None, params) for c in sorted({skew_case, loss_case})
                     for s in range(1, args.seeds + 1)]
             out = {"skew_case": skew_case, "loss_case": loss_case, "baseline": [f.result() for f in base],
-                   "axes": {}}
+                   "axes": {}, **({"params": params} if params else {})}
             for axis in GRIDS:
                 case = skew_case if axis.startswith("clock") else loss_case
-                out["axes"][axis] = sweep_axis(pool, case, axis, args.seeds)
+                out["axes"][axis] = sweep_axis(pool, case, axis, args.seeds, params)
             if rt_case and not args.no_realtime:
                 skew = {k: out["axes"][k]["largest_passing"] for k in ("clock_offset", "clock_drift")
                         if out["axes"][k]["largest_passing"]}
-                rt = [pool.submit(run_one, rt_case, None, 0.0, s, skew) for s in (1, 2)]
+                rt = [pool.submit(run_one, rt_case, None, 0.0, s, skew, params) for s in (1, 2)]
                 out["realtime"] = {"case": rt_case, "skew": skew, "rows": [f.result() for f in rt]}
                 print(f"  realtime {rt_case} with {skew}: "
                       f"{[r['passed'] for r in out['realtime']['rows']]}", flush=True)
@@ -171,7 +186,8 @@ def main() -> None:
             data["grids"] = GRIDS
             args.out.parent.mkdir(parents=True, exist_ok=True)
             args.out.write_text(json.dumps(data, indent=1, default=float))
-    data["wall_s"] = round(time.time() - t0, 1)
+    data["wall_s" if set(args.families.split(",")) >= set(CASES) - set(VARIANTS) else "wall_s_last_part"] = round(
+        time.time() - t0, 1)  # a partial rerun keeps the whole sweep's time
     args.out.write_text(json.dumps(data, indent=1, default=float))
     print(f"wrote {args.out} in {data['wall_s']} s")
 

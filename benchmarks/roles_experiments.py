@@ -13,7 +13,9 @@ ticks).
 
 Main (Sec. IV-B, Figs. 6-11): the patrol, N = 10, 20, ..., 50, 2000 timesteps; disconnections from the base
 station and their lengths (oracle), processing time per robot and per role, received messages per robot per
-timestep, targets reached.
+timestep, targets reached. ``--only witnesses``: the patrol with the paper's witness set as printed
+(``witnesses = "all"``), resuming (trials already in the JSON file are kept), and Fig. 7 redrawn with both
+witness sets (``docs/img/roles-fig7-witnesses.png``, also by ``--replot``).
 
 Trials run over worker processes (``spawn``), each in lockstep with its own seed. Plots go to
 ``docs/img/roles-*.png``; every number to the JSON file. With ``--quick``: fewer sizes and ticks, for a smoke
@@ -483,6 +485,55 @@ def plot_main(rows: list[dict], img: Path, prefix: str = "roles") -> dict:
 
 
 # ================================================================== main
+def plot_fig7_witnesses(ours: list[dict], paper_set: list[dict], img: Path) -> Path:
+    """Fig. 7 redrawn with both witness sets of Algorithm 2: ours ("linkable") and the paper's as printed ("all").
+
+    (a) disconnections per trial, (b) their mean length per trial (ticks to recovery), (c) ticks per trial with
+    some robot disconnected; one box per N and witness set, every trial a dot. The paper's figure is not in the
+    text we have: its statements are quoted on each panel, and its one number (about 100 timesteps per trial at
+    N = 10) is marked.
+    """
+    plt = _plt()
+    ns = sorted({r["n"] for r in ours} | {r["n"] for r in paper_set})
+    sets = (("ours: local leaders and explorers witness", ours, "tab:blue", -0.18),
+            ('paper\'s as printed (witnesses = "all")', paper_set, "tab:orange", 0.18))
+    panels = (("disconnections", "disconnections per trial (robot episodes)",
+               "paper (Fig. 7a): \"a few dozens at most\",\nmore for smaller swarms"),
+              ("disconnection_mean", "mean disconnection length per trial (ticks)",
+               "paper (Fig. 7b): every one recovered\n\"within a few to dozens of timesteps\""),
+              ("disconnected_ticks", "ticks per trial with a robot disconnected",
+               "paper: about 100 timesteps per trial\nat N = 10 (5 % of the mission)"))
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6), dpi=110)
+    for ax, (field, label, quote) in zip(axes, panels, strict=True):
+        for name, rows, colour, dx in sets:
+            data = [[r[field] for r in rows if r["n"] == n] for n in ns]
+            pos = [i + dx for i, d in enumerate(data) if d]
+            bp = ax.boxplot([d for d in data if d], positions=pos, widths=0.3, patch_artist=True,
+                            showfliers=False)
+            for box in bp["boxes"]:
+                box.set(facecolor=colour, alpha=0.35)
+            for x, d in zip(pos, [d for d in data if d], strict=True):
+                ax.plot([x] * len(d), d, ".", color=colour, alpha=0.8)
+            ax.plot([], [], "s", color=colour, alpha=0.5,
+                    label=f"{name} ({'/'.join(str(len(d)) for d in data if d)} trials)")
+        if field == "disconnected_ticks":
+            ax.plot([ns.index(10)], [100], "*", color="black", markersize=12, label="paper, N = 10")
+        ax.set_xticks(range(len(ns)), [str(n) for n in ns])
+        ax.set_xlabel("N")
+        ax.set_ylabel(label)
+        ax.set_title(quote, fontsize=8)
+        ax.grid(alpha=0.3)
+    handles, labels = axes[2].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=8, frameon=False)
+    fig.suptitle("Fig. 7 with both witness sets (d_s = d_c, 2000 ticks; disconnections from the base station "
+                 "by the oracle, per robot)", fontsize=10)
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
+    path = img / "roles-fig7-witnesses.png"
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--trials", type=int, default=3, help="trials per N (the paper: 30)")
@@ -521,6 +572,8 @@ def main() -> None:
             results["main"]["fig6"] = fig6_snapshots(args.img, ticks=results["main"]["ticks"])
         for key in [k for k in results if k.startswith("main_ds")]:
             plot_main(ints(results[key]["rows"]), args.img, prefix=f"roles-ds{results[key]['d_s']}")
+        if "main" in results and "witnesses_all" in results:
+            plot_fig7_witnesses(results["main"]["rows"], results["witnesses_all"]["rows"], args.img)
         args.out.write_text(json.dumps(results, indent=1, default=float))
         print(f"replotted from {args.out}")
         return
@@ -577,12 +630,19 @@ def main() -> None:
         ns = [int(x) for x in (args.sizes or "10,30,50").split(",")]
         ticks = 500 if args.quick else 2000
         params = {"witnesses": "all", **({"d_s": args.d_s} if args.d_s else {})}
-        print(f"patrol with the paper's witness set: N = {ns}, {ticks} ticks, {args.trials} trials, {params}")
-        rows = run_jobs(main_job, [(n, 2000 + s, ticks, params) for s in range(args.trials) for n in ns],
-                        args.jobs, "witnesses")
         key = "witnesses_all" + (f"_ds{args.d_s}" if args.d_s else "")
-        results[key] = {"ticks": ticks, "trials": args.trials, "params": params,
-                        "rows": sorted(rows, key=lambda r: (r["n"], r["seed"]))}
+        old = results.get(key, {})
+        kept = [r for r in old.get("rows", []) if old.get("ticks") == ticks and old.get("params") == params]
+        done = {(r["n"], r["seed"]) for r in kept}  # trials already run are kept, not run again
+        todo = [(n, 2000 + s, ticks, params) for s in range(args.trials) for n in ns if (n, 2000 + s) not in done]
+        print(f"patrol with the paper's witness set: N = {ns}, {ticks} ticks, {args.trials} trials, {params}; "
+              f"{len(todo)} to run, {len(kept)} kept")
+        rows = kept + run_jobs(main_job, todo, args.jobs, "witnesses")
+        results[key] = {"ticks": ticks, "params": params, "rows": sorted(rows, key=lambda r: (r["n"], r["seed"])),
+                        "sizes": sorted({r["n"] for r in rows}),
+                        "trials": {str(n): sum(r["n"] == n for r in rows) for n in sorted({r["n"] for r in rows})}}
+        if key == "witnesses_all" and "main" in results:
+            plot_fig7_witnesses(results["main"]["rows"], results[key]["rows"], args.img)
         for r in results[key]["rows"]:
             print(f"  N={r['n']:2d} seed {r['seed']}: disconnections {r['disconnections']} (mean "
                   f"{r['disconnection_mean']:.1f}, max {r['disconnection_max']}), robot-ticks "

@@ -34,6 +34,7 @@ def test_validate_new_options():
     assert Biconnectivity.validate({"repeat": 0})
     assert Biconnectivity.validate({"graph": "mesh"})
     assert Biconnectivity.validate({"repeat": 2, "graph": "structure"}) is None
+    assert Biconnectivity.validate({"agree": 0}) and Biconnectivity.validate({"agree": 2, "max_periods": 1})
 
 
 @pytest.mark.slow
@@ -93,3 +94,18 @@ def test_removal_leader_and_d_from_structure_neighbours_only(run):
     assert lead["neighbours"] == [2, 4] and lead["removed"] == 3
     # 2 and 4 sit sqrt(3) apart, 1 from robot 3's centre: an edge (<= 0.98) needs d >= 1 - 0.98/sqrt(3) = 0.434
     assert 0.43 <= lead["d"][0] <= 0.45 and lead["verdict"] is True
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("positions, truth", [(ring(6), True), ([[S * i, 0.0] for i in range(4)], False)])
+def test_agreeing_periods_lossless_two_periods_same_verdicts_checks_pass(run, positions, truth):
+    """R15 (agree = 2) without loss: every check-running robot decides after two periods, as the paper would."""
+    sc = check_scenario(positions, ticks=4 * (6 * max(len(positions), 3) + 2) + 8, agree=2)
+    sc["checks"] = [{"use": "biconnectivity.lists"}, {"use": "biconnectivity.verdict"},
+                    {"use": "biconnectivity.paths"}]
+    res = run(sc)
+    assert res.passed, res.checks
+    checks = [ck for rep in res.reports("biconnectivity").values() for ck in rep["checks"]]
+    assert len(checks) >= 2
+    for ck in checks:
+        assert ck["verdict"] is truth and len(ck["rounds"]) == 2 and ck["rounds"][0][1] is truth

@@ -119,3 +119,13 @@ def test_realtime_reaches_the_component(run, seed):
     assert all(got[r]["hop"] >= dist[r] for r in got)
     assert all(r["duplicates"] >= 0 for r in result.reports("flooding").values())
     assert result.check("flooding.component")["passed"]
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_remaining_lifetime_reaches_exactly_the_bfs_ball_whatever_the_clocks(run, seed):
+    """F1r: with robots' clocks off by up to 8 s and 10 % drift, the receivers are still the ⌊expiry⌋-hop ball."""
+    sc = flood_scenario(20, seed)
+    sc["robots"][0]["behaviors"][0]["lifetime"] = "remaining"
+    sc["robots"][0].update(clock_offset=[-8.0, 8.0], clock_drift=[-1e5, 1e5])
+    result = run(sc)
+    assert result.passed, result.checks

@@ -87,6 +87,16 @@ The check (Algorithm 3)
   ignore (count, not relay) CR/DCR frames from a sender whose region centre,
   as its table knows it (R10), is beyond the structure-neighbour distance: the
   check then judges the structure graph, the one Theorems 3 and 4 speak of.
+* **R15 - agreeing periods** (``agree``, beyond the paper; default 1 = the
+  paper). With ``agree = k > 1`` a check-running robot's conclusion of a period
+  is not yet its verdict: the verdict is given once its last k periods
+  concluded alike (true or false), or is null (``"no agreement"``) after
+  ``max_periods``. Otherwise it runs the check's next period (the newer one a
+  neighbour started, else one it starts) and broadcasts ``("CHECK-REQUEST",
+  [p, t_request, initiator, k])``; robots running that check follow (a decided
+  one only answers DC in p, keeping its verdict), others just join p (R4).
+  Each period has the paper's timeout; the check's bound is
+  ``max_periods`` x (6Nc + 2c).
 
 Maintaining the structure (add and remove)
 ==========================================

@@ -32,9 +32,11 @@ class Biconnectivity(Behavior):
                  speed: float = 0.05, d_step: float | None = None, d_more: float | None = None,
                  max_rounds: int = 10, joiner: bool = False,
                  placement: str = "heuristic", leave: list | None = None, maintain: bool = True,
-                 repeat: int = 1, graph: str = "radio"):
+                 repeat: int = 1, graph: str = "radio", agree: int = 1, max_periods: int = 4):
         self.N, self.c = int(N), float(c)
         self.repeat = int(repeat)  # initiating messages per kind and period (R13; 1 = the paper)
+        self.agree = int(agree)  # R15: periods whose conclusions must agree before a verdict (1 = the paper)
+        self.max_periods = int(max_periods)  # R15: periods a check may run before it gives up (agree > 1)
         self.graph = graph  # R14: the fills run over the radio graph or over the structure-neighbour graph
         ids = [] if initiator is None else ([initiator] if isinstance(initiator, int) else list(initiator))
         ats = at if isinstance(at, list) else [at] * len(ids)
@@ -52,7 +54,9 @@ class Biconnectivity(Behavior):
         self.max_rounds, self.joiner, self.placement, self.maintain = max_rounds, joiner, placement, maintain
         self.leave = {int(r): int(t) for r, t in (leave or [])}
         self.W = 3 * self.N * self.c  # the fills' wait (3Nc)
-        self.bound = 6 * self.N * self.c + 2 * self.c  # the check's bound (6Nc + 2c)
+        self.bound = 6 * self.N * self.c + 2 * self.c  # the check's bound (6Nc + 2c), per period of a check
+        # the whole check's bound: one period (the paper), or at most max_periods of them (R15)
+        self.check_bound = self.bound if self.agree == 1 else self.max_periods * self.bound
         # fills
         self.period = -1
         self.joined: float | None = None
@@ -70,6 +74,9 @@ class Biconnectivity(Behavior):
         self.dc_heard: dict[int, dict[str, set[int]]] = defaultdict(lambda: {"true": set(), "false": set()})
         self.evaluated: dict[int, bool] = {}  # period -> own DC answer, once evaluated
         self.next_check: int | None = None
+        self.session: tuple | None = None  # (initiator id, request time) of the current check (R15)
+        self.round_started: float | None = None  # when the current period of the check started here
+        self.answer_only: int | None = None  # R15: a period to answer in after this robot's verdict
         self.biconnected: bool | None = None
         self.reason: str | None = None
         self.decided_at: int | None = None
@@ -96,7 +103,7 @@ class Biconnectivity(Behavior):
         ``group`` is the robot group as the scenario resolved it (its ``range`` is the robots' radio range):
         two regions must fit in it.
         """
-        for key in ("N", "budget", "repeat"):
+        for key in ("N", "budget", "repeat", "agree", "max_periods"):
             if key in params and (not is_int(params[key]) or params[key] < 1):
                 return f"{key} = {params[key]!r} must be an integer >= 1"
         at = params.get("at", 0)
@@ -131,6 +138,8 @@ class Biconnectivity(Behavior):
                 return problem
         if ini is not None and not (is_int(ini) or (isinstance(ini, list) and all(is_int(i) for i in ini))):
             return f"initiator = {ini!r} must be a robot id or a list of ids"
+        if params.get("max_periods", 4) < params.get("agree", 1):
+            return f"max_periods = {params.get('max_periods', 4)!r} must be >= agree = {params.get('agree', 1)!r}"
         if params.get("graph", "radio") not in ("radio", "structure"):
             return "graph must be 'radio' or 'structure'"
         if params.get("placement", "heuristic") not in ("heuristic", "min_intersection"):
@@ -259,14 +268,17 @@ class Biconnectivity(Behavior):
                 self.reason = "budget"
 
     # ------------------------------------------------------------ the check (R5-R8)
-    def _start_check(self, ctx: Context, initiator: bool, p: int, t_request: float) -> None:
+    def _start_check(self, ctx: Context, initiator: bool, p: int, t_request: float, by) -> None:
         old = self.check
         if old is not None and not old["done"]:  # a new check replaces one still waiting
             old.update(done=True, reason="superseded", decided=ctx.now, decided_at=ctx.tick)
         self.check = {"period": p, "initiator": initiator, "requested": t_request, "started": ctx.now,
                       "started_tick": ctx.tick, "evaluated": False, "own": None, "verdict": None,
                       "reason": None, "decided": None, "decided_at": None, "done": False}
+        if self.agree > 1:
+            self.check["rounds"] = []  # R15: [period, conclusion, reason] per period
         self.checks.append(self.check)
+        self.session, self.round_started, self.answer_only = (by, t_request), t_request, None
         self.biconnected, self.reason, self.decided_at = None, None, None
         ctx.set_status(biconnected=None, reason=None)
 
@@ -275,27 +287,36 @@ class Biconnectivity(Behavior):
         if not fresh:
             self._join_period(ctx, max(ctx.tick, self.period + 1))
         p = self.period
-        self._start_check(ctx, True, p, ctx.now)
+        self._start_check(ctx, True, p, ctx.now, ctx.id)
         ctx.set_status(role="initiator")
         ctx.broadcast(CHECK_REQUEST, [p, ctx.now, ctx.id])
 
     def _on_request(self, ctx: Context, frame: Frame) -> None:
         body = frame.body
-        if not (isinstance(body, list) and len(body) == 3 and isinstance(body[0], int)
-                and not isinstance(body[0], bool) and body[0] >= 0 and isinstance(body[1], (int, float))):
+        if not (isinstance(body, list) and len(body) in (3, 4) and isinstance(body[0], int)
+                and not isinstance(body[0], bool) and body[0] >= 0 and isinstance(body[1], (int, float))
+                and (len(body) == 3 or is_int(body[3]))):
             self.malformed["request"] += 1
             return
-        p, t_req, _ = body
+        p, t_req, by = body[:3]
         if p > self.period:
             self._join_period(ctx, p)
         p = self.period  # an older request runs on the current fill
+        ck = self.check
+        if len(body) == 4:  # R15: a further period of a running check; robots not running it only join (R4)
+            if ck is None or self.session != (by, float(t_req)):
+                return
+            if p in self.evaluated:
+                ctx.broadcast(DC_TRUE if self.evaluated[p] else DC_FALSE, [p])
+            elif ck["done"]:
+                self.answer_only = p  # decided already: answer in p, keep the verdict
+            return  # undecided: its check continues on p when its current period concludes
         if p in self.evaluated:  # already answered this period: repeat the answer for the new asker
             ctx.broadcast(DC_TRUE if self.evaluated[p] else DC_FALSE, [p])
             return
-        ck = self.check
         if ck is not None and not ck["done"] and ck["period"] == p:
             return  # already running it
-        self._start_check(ctx, False, p, float(t_req))
+        self._start_check(ctx, False, p, float(t_req), by)
 
     def _evaluate(self, ctx: Context) -> None:
         ck = self.check
@@ -327,8 +348,40 @@ class Biconnectivity(Behavior):
         elif heard["true"] and ck["own"]:
             self._decide(ctx, True, "this robot and a neighbour are doubly connected to all")  # lines 10-11
 
+    def _next_period(self, ctx: Context, value: bool | None, reason: str) -> tuple[bool, bool | None, str]:
+        """R15: record a period's conclusion; (final, verdict, reason), or start the check's next period.
+
+        The verdict is final when the last ``agree`` periods concluded alike (true or false); after
+        ``max_periods`` periods without that, it is null (``reason = "no agreement"``). Otherwise the robot
+        runs the next period: the newer one it has already joined (a neighbour asked first), else a new
+        one it starts itself (R4), and asks its neighbours to run it with the same check's request.
+        """
+        ck = self.check
+        rounds = ck["rounds"]
+        rounds.append([ck["period"], value, reason])
+        last = [r[1] for r in rounds[-self.agree:]]
+        if len(last) == self.agree and last[0] is not None and all(v == last[0] for v in last):
+            return True, value, reason
+        if reason == "budget":  # over budget is no accident of loss: another period would be too
+            return True, None, reason
+        if len(rounds) >= self.max_periods:
+            return True, None, "no agreement"
+        ck["evaluated"], ck["own"] = False, None
+        self.round_started = ctx.now
+        if self.period > ck["period"] and ctx.now - self.joined < self.W:
+            ck["period"] = self.period
+        else:
+            self._join_period(ctx, max(ctx.tick, self.period + 1))  # moves the check to the new period
+        by, t_req = self.session
+        ctx.broadcast(CHECK_REQUEST, [self.period, t_req, by, len(rounds) + 1])
+        return False, None, reason
+
     def _decide(self, ctx: Context, value: bool | None, reason: str) -> None:
         ck = self.check
+        if self.agree > 1:
+            final, value, reason = self._next_period(ctx, value, reason)
+            if not final:
+                return
         ck.update(done=True, verdict=value, reason=reason, decided=ctx.now, decided_at=ctx.tick)
         self._set_verdict(ctx, value, reason)
         if ck["initiator"] and self.flood_verdict and value is not None:
@@ -426,8 +479,13 @@ class Biconnectivity(Behavior):
         if ck is not None and not ck["done"]:
             if not ck["evaluated"] and self.joined is not None and ctx.now >= self.joined + self.W:
                 self._evaluate(ctx)
-            elif ck["evaluated"] and ctx.now - ck["requested"] >= self.bound:
+            elif ck["evaluated"] and ctx.now - self.round_started >= self.bound:
                 self._decide(ctx, None, "timeout")
+        if self.answer_only is not None and self.joined is not None and ctx.now >= self.joined + self.W:
+            p, self.answer_only = self.answer_only, None  # R15: answer in a period after this robot's verdict
+            if p == self.period and p not in self.evaluated:
+                self.evaluated[p] = len(self.dcr) == len(self.cr)
+                ctx.broadcast(DC_TRUE if self.evaluated[p] else DC_FALSE, [p])
         if self.next_check is not None and ctx.tick >= self.next_check:
             self.next_check = None if self.every is None else self.next_check + self.every
             self._initiate(ctx)
@@ -681,7 +739,7 @@ class Biconnectivity(Behavior):
             "malformed_reasons": dict(self.malformed),
             "stale": dict(self.stale),
             "other_received": dict(self.other),
-            "bounds": {"fill": self.W, "check": self.bound},
+            "bounds": {"fill": self.W, "check": self.check_bound},
             "neighbours": sorted(self.heard),
             "removed": sorted(self.removed),
             "removals": [{k: v for k, v in r.items() if k not in ("checking", "check_at")} for r in self.removals],

@@ -13,11 +13,17 @@ being the send time plus the expiration period. Rules, per robot:
   a robot forwards again when a copy arrives with strictly more hops left
   than any before, so that asynchrony cannot hide a robot behind a long path.
 
+* F1r - with ``lifetime = "remaining"`` (issue 23) a copy carries the lifetime
+  it has left instead of the deadline; each hop consumes ``hop_cost`` (the
+  paper's "single timestep per hop", default one tick) and a copy with a
+  negative remainder has expired. No clock is compared across robots.
+
 With a time deadline alone, forwarding on first arrival reaches exactly the
 robots whose earliest possible arrival is not after the deadline: in lockstep
 with per-hop latency c, the robots within floor(expiry / c) hops.
 
 Parameters: ``origin`` (robot id), ``at`` (tick of origination), ``expiry``
 (ticks in lockstep, seconds in realtime; none = no deadline), ``hops``
-(optional limit), ``payload``. One flood per run.
+(optional limit), ``payload``, ``lifetime`` ("deadline" or "remaining"),
+``hop_cost``. One flood per run.
 """

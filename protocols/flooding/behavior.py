@@ -1,4 +1,4 @@
-"""Flooding: the robot side (rules F1-F3). Imports no oracle."""
+"""Flooding: the robot side (rules F1-F4, F1r with ``lifetime = "remaining"``). Imports no oracle."""
 
 from __future__ import annotations
 
@@ -10,15 +10,24 @@ KIND = "FLOOD"
 
 
 class Flooding(Behavior):
-    """Forward-once flooding with a deadline and an optional hop limit."""
+    """Forward-once flooding with an expiration period and an optional hop limit.
+
+    ``lifetime = "deadline"`` (the default): a copy carries the absolute deadline, origin's clock + expiry,
+    and each receiver compares it with its own clock (F1). ``lifetime = "remaining"`` (F1r, issue 23): a
+    copy carries its remaining lifetime; each hop consumes ``hop_cost`` of it (Kobayashi et al. §III-A:
+    "consuming a single timestep per hop"), and a copy with a negative remainder has expired. No clock is
+    compared across robots, so clock offset and drift cannot change who receives the message.
+    """
 
     name = "flooding"
     kinds = (KIND,)
     plot_field = "hop"
 
     def __init__(self, origin: int = 0, at: int = 0, expiry: float | None = None, hops: int | None = None,
-                 payload: object = None):
+                 payload: object = None, lifetime: str = "deadline", hop_cost: float | None = None):
         self.origin, self.at, self.expiry, self.hops, self.payload = origin, at, expiry, hops, payload
+        self.lifetime = lifetime  # "deadline" (F1) or "remaining" (F1r)
+        self.hop_cost = hop_cost  # F1r: lifetime one hop consumes; None = one tick (1 in lockstep, dt in realtime)
         self.received: dict[str, dict] = {}
         self.best_hop: dict[str, int] = {}
         self.forwards: Counter = Counter()
@@ -38,13 +47,27 @@ class Flooding(Behavior):
         e = params.get("expiry")
         if e is not None and (not isinstance(e, (int, float)) or isinstance(e, bool) or e < 0):
             return f"expiry = {e!r} must be a non-negative number"
+        if params.get("lifetime", "deadline") not in ("deadline", "remaining"):
+            return f"lifetime = {params['lifetime']!r} must be 'deadline' or 'remaining'"
+        h = params.get("hop_cost")
+        if h is not None and (not isinstance(h, (int, float)) or isinstance(h, bool) or h <= 0):
+            return f"hop_cost = {h!r} must be a number > 0"
         return None
+
+    def _cost(self, ctx: Context) -> float:
+        """F1r: what one hop consumes of a copy's lifetime (one time step: a tick, in the clock's unit)."""
+        if self.hop_cost is not None:
+            return float(self.hop_cost)
+        return 1.0 if ctx.clock == "lockstep" else ctx.dt
 
     def on_tick(self, ctx: Context, sensed) -> None:
         if ctx.id == self.origin and not self.originated and ctx.tick >= self.at:
             self.originated = True
             msg = f"{ctx.id}/0"
-            deadline = None if self.expiry is None else ctx.now + self.expiry
+            if self.lifetime == "remaining":
+                deadline = self.expiry  # F1r: the whole lifetime is left when the origin sends
+            else:
+                deadline = None if self.expiry is None else ctx.now + self.expiry
             self.received[msg] = {"hop": 0, "tick": ctx.tick, "time": ctx.now, "from": None}
             self.best_hop[msg] = 0
             ctx.set_status(hop=0)
@@ -52,12 +75,15 @@ class Flooding(Behavior):
 
     def on_frame(self, ctx: Context, frame: Frame) -> None:
         body = frame.body
+        remaining = self.lifetime == "remaining"
         try:
-            msg, deadline, hop, payload = body["m"], body["dl"], int(body["h"]), body.get("p")
+            msg, deadline, hop, payload = body["m"], body["rl" if remaining else "dl"], int(body["h"]), body.get("p")
+            if deadline is not None and remaining:
+                deadline = float(deadline) - self._cost(ctx)  # F1r: the hop consumed one time step
         except (TypeError, KeyError, ValueError):
             self.malformed += 1
             return
-        if deadline is not None and ctx.now > deadline:  # F1
+        if deadline is not None and (deadline < -1e-9 if remaining else ctx.now > deadline):  # F1 / F1r
             self.expired += 1
             return
         first = msg not in self.received
@@ -75,7 +101,8 @@ class Flooding(Behavior):
 
     def _send(self, ctx: Context, msg: str, deadline, hop: int, exclude, payload=None) -> None:
         self.forwards[msg] += 1
-        ctx.broadcast(KIND, {"m": msg, "dl": deadline, "h": hop, "p": payload if payload is not None else self.payload},
+        key = "rl" if self.lifetime == "remaining" else "dl"  # F1r: the lifetime left as the copy leaves
+        ctx.broadcast(KIND, {"m": msg, key: deadline, "h": hop, "p": payload if payload is not None else self.payload},
                       exclude=exclude)
 
     def report(self) -> dict:
