@@ -40,8 +40,9 @@ async def test_items_are_never_handed_over_before_their_due_time():
     assert sorted(d for d, _ in got) == sorted(dues)  # each once
     late = np.array([now - due for due, now in got])
     assert (late >= 0).all(), late.min()
-    # an idle loop: typically tens of microseconds late (asyncio's own timers: up to a millisecond)
-    assert np.median(late) < 0.002, np.median(late)
+    # an idle loop: typically tens of microseconds late (asyncio's own timers: up to a millisecond); the bound is
+    # loose because this is a correctness test, not a benchmark: at load 10 on 2 cores the median reached 2 ms
+    assert np.median(late) < 0.02, np.median(late)
 
 
 async def test_items_are_handed_over_in_due_order_and_past_ones_at_once():
