@@ -36,6 +36,20 @@ def test_open_field_10_robots_chain_built_target_reached_same_hash_with_1_and_3_
     assert three["trace_hash"] == one["trace_hash"]
 
 
+def test_two_redundant_chains_to_one_target_both_built_both_reach_disjoint_links_within_db(run):
+    """Sec. III-C, C_n = 2: chains 0 and 1 serve target 0, each with its own worker, links and side of pi."""
+    result = run(relays_scenario(18, [[8.0, 0.0]], ticks=400, chains_per_target=2))
+    assert all(c["passed"] for c in result.checks), result.checks
+    reached = [c for c in result.checks if c["name"] == "relays.reached"]
+    assert len(reached) == 2 and all(c["value"] is not None for c in reached)
+    assert [c for c in result.checks if c["name"] == "relays.links_within_db"][0]["value"] <= 1.8
+    a, b = chain_of(result, 0), chain_of(result, 1)
+    assert a[-1] == b[-1] == 0 and not set(a[:-1]) & set(b[:-1])  # only the root is shared
+    assert len(a) - 1 >= 6 and len(b) - 1 >= 6
+    final = {row[0]: row[1:] for row in result.trace[-1]["pos"]}
+    assert final[a[0]][1] < 0 < final[b[0]][1]  # copy 0 right of pi, copy 1 left
+
+
 def test_c_shaped_obstacle_chain_goes_around_without_touching_it(run):
     result = run(relays_scenario(12, [[8.0, 0.0]], ticks=600, obstacles=C_SHAPE))
     assert all(c["passed"] for c in result.checks), result.checks

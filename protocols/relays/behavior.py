@@ -90,8 +90,9 @@ class Relays(Behavior):
                  bid_time: float = 10.0, recruit_time: float = 1.0, forget_time: float = 3.0,
                  link_fail: float = 5.0, k: int = 8, wp: bool = False, resolution: float = 0.25,
                  budget: int = 20000, clearance: float = 0.4, area: list | None = None, lookahead: float = 0.5,
-                 kind: str = "ground", altitude: float = 0.7):
+                 kind: str = "ground", altitude: float = 0.7, chains_per_target: int = 1, spacing: float = 0.3):
         self.targets = [[float(c) for c in t] for t in targets]
+        self.cn, self.spacing = chains_per_target, spacing  # C_n chains per target, side by side (Sec. III-C)
         self.root, self.at = root, at
         self.ds, self.dc, self.db, self.vmax, self.rcol = ds, dc, db, vmax, rcol
         self.times = {"plan": plan_time, "bid": bid_time, "recruit": recruit_time, "forget": forget_time,
@@ -142,14 +143,14 @@ class Relays(Behavior):
                 isinstance(p, list) and len(p) in (2, 3) and all(is_num(c) for c in p) for p in t):
             return f"targets = {t!r} must be a non-empty list of [x, y] or [x, y, z] points"
         for key in ("ds", "dc", "db", "vmax", "rcol", "plan_time", "bid_time", "recruit_time", "forget_time",
-                    "link_fail", "resolution", "clearance", "lookahead"):
+                    "link_fail", "resolution", "clearance", "lookahead", "spacing"):
             v = params.get(key)
             if v is not None and (not is_num(v) or v <= 0):
                 return f"{key} = {v!r} must be a positive number"
         ds, dc, db = params.get("ds", 1.4), params.get("dc", 1.6), params.get("db", 1.8)
         if not ds < dc < db:
             return f"zones must satisfy ds < dc < db (got ds = {ds}, dc = {dc}, db = {db})"
-        for key, low in (("root", 0), ("at", 0), ("k", 1), ("budget", 1)):
+        for key, low in (("root", 0), ("at", 0), ("k", 1), ("budget", 1), ("chains_per_target", 1)):
             v = params.get(key)
             if v is not None and (not is_int(v) or v < low):
                 return f"{key} = {v!r} must be an integer >= {low}"
@@ -165,6 +166,10 @@ class Relays(Behavior):
         return None
 
     # ------------------------------------------------------------------ helpers
+    def side(self, chain: int) -> float:
+        """Chain c = t C_n + j is copy j of target t; it runs (j - (C_n - 1)/2) * spacing to the left of pi."""
+        return (chain % self.cn - (self.cn - 1) / 2) * self.spacing
+
     def _ticks(self, ctx: Context, what: str) -> int:
         return max(1, round(self.times[what] / ctx.dt))
 
@@ -327,10 +332,10 @@ class Relays(Behavior):
         yet taken, in rounds of ``bid_time``.
         """
         bid_ticks = self._ticks(ctx, "bid")
-        for t in range(len(self.targets)):
+        for t in range(len(self.targets) * self.cn):  # chain t is copy t % C_n of target t // C_n
             if t in self.elections:
                 continue
-            entry = self.rel.peek(f"target/{t}")
+            entry = self.rel.peek(f"target/{t // self.cn}")
             if not isinstance(entry, dict) or not is_int(entry.get("at")):
                 break
             pos = entry.get("pos")
@@ -400,8 +405,8 @@ class Relays(Behavior):
 
     def _make_plan(self, ctx: Context) -> None:
         """R2: reachability and A* on the known map, then the tuple <pi, PE, pi_g> into the stigmergy."""
-        target = self.targets[self.chain] if self.chain < len(self.targets) else None
-        entry = self.rel.peek(f"target/{self.chain}")
+        target = self.targets[self.chain // self.cn] if self.chain // self.cn < len(self.targets) else None
+        entry = self.rel.peek(f"target/{self.chain // self.cn}")
         if isinstance(entry, dict):
             target = entry["pos"]
         start = self.root_pos if self.root_pos is not None else self._pos(ctx)
@@ -424,14 +429,12 @@ class Relays(Behavior):
         elif inside(target[0], target[1]):
             why = "target inside an obstacle"
         else:
-            grid = planner.Grid(area, self.res, inside, self.clearance)
-            status, pts = planner.plan(grid, list(start), list(target[:2]), self.budget)
-            air = None
-            if status == "unreachable" and m is not None and m.dims == 3:  # in R^3, over the obstacles (Sec. IV)
-                h = self.altitude
-                grid = planner.Grid(area, self.res, lambda x, y: m.inside([x, y, h], ground=False), self.clearance)
-                status, pts = planner.plan(grid, list(start), list(target[:2]), self.budget)
-                air = h
+            side = self.side(self.chain)
+            status, pts, air = self._plan_grid(area, inside, m, start, target, abs(side))
+            if side and status == "ok":  # planned with |side| more clearance, so the shifted path keeps its own
+                pts = planner.offset(pts, side)
+            elif side:  # too narrow for side-by-side chains: this copy follows pi itself
+                status, pts, air = self._plan_grid(area, inside, m, start, target, 0.0)
             why = None if status == "ok" else {"outside": "target outside the map", "unreachable": "unreachable",
                                                "budget": "planner budget exhausted"}[status]
         self.plan_status = why or "ok"
@@ -448,6 +451,19 @@ class Relays(Behavior):
         self.planned_at = ctx.tick
         self.rel.put(f"plan/{self.chain}", value)
         self._load_plan(ctx)
+
+    def _plan_grid(self, area, inside, m, start, target, extra: float):
+        """Flood fill + A* on the ground, else (3-D world) at the flying altitude; clearance + ``extra``."""
+        grid = planner.Grid(area, self.res, inside, self.clearance + extra)
+        status, pts = planner.plan(grid, list(start), list(target[:2]), self.budget)
+        air = None
+        if status == "unreachable" and m is not None and m.dims == 3:  # in R^3, over the obstacles (Sec. IV)
+            h = self.altitude
+            grid = planner.Grid(area, self.res, lambda x, y: m.inside([x, y, h], ground=False),
+                                self.clearance + extra)
+            status, pts = planner.plan(grid, list(start), list(target[:2]), self.budget)
+            air = h
+        return status, pts, air
 
     def _load_plan(self, ctx: Context) -> None:
         """R3: read this chain's plan tuple; refuse a malformed one (counted once per version)."""
