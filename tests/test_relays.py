@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from protocols.relays.behavior import Relays
-from protocols.relays.suite import C_SHAPE, default_checks, relays_scenario, wall_scenario
+from protocols.relays.suite import C_SHAPE, default_checks, maze_scenario, relays_scenario, wall_scenario
 
 pytestmark = pytest.mark.slow  # every test runs scenarios over Zenoh
 
@@ -48,6 +50,18 @@ def test_two_redundant_chains_to_one_target_both_built_both_reach_disjoint_links
     assert len(a) - 1 >= 6 and len(b) - 1 >= 6
     final = {row[0]: row[1:] for row in result.trace[-1]["pos"]}
     assert final[a[0]][1] < 0 < final[b[0]][1]  # copy 0 right of pi, copy 1 left
+
+
+def test_a_generated_maze_the_chain_follows_the_corridors_to_the_far_corner(run):
+    """The full suite's maze case: a 3 x 3 perfect maze, root and target in opposite corners, 16 robots.
+
+    Corridors 2 m, walls 1 m; the path winds (13.5 m for an 8.5 m straight line); no robot touches a wall.
+    """
+    result = run(maze_scenario(16, 3, 3, maze_seed=0, ticks=450))
+    assert all(c["passed"] for c in result.checks), result.checks
+    path = [r["path"] for r in result.reports("relays").values() if r["role"] == "worker"][0]
+    assert len(path) >= 5 and sum(math.dist(a[:2], b[:2]) for a, b in zip(path, path[1:], strict=False)) > 12.0
+    assert len(chain_of(result)) - 1 >= 10  # ceil(13.5 / 1.4) links
 
 
 def test_c_shaped_obstacle_chain_goes_around_without_touching_it(run):
