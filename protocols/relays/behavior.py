@@ -90,13 +90,14 @@ class Relays(Behavior):
                  bid_time: float = 10.0, recruit_time: float = 1.0, forget_time: float = 3.0,
                  link_fail: float = 5.0, k: int = 8, wp: bool = False, resolution: float = 0.25,
                  budget: int = 20000, clearance: float = 0.4, area: list | None = None, lookahead: float = 0.5,
-                 kind: str = "ground", altitude: float = 0.7, chains_per_target: int = 1, spacing: float = 0.3):
+                 kind: str = "ground", altitude: float = 0.7, chains_per_target: int = 1, spacing: float = 0.3,
+                 join_time: float | None = None):
         self.targets = [[float(c) for c in t] for t in targets]
         self.cn, self.spacing = chains_per_target, spacing  # C_n chains per target, side by side (Sec. III-C)
         self.root, self.at = root, at
         self.ds, self.dc, self.db, self.vmax, self.rcol = ds, dc, db, vmax, rcol
         self.times = {"plan": plan_time, "bid": bid_time, "recruit": recruit_time, "forget": forget_time,
-                      "fail": link_fail}
+                      "fail": link_fail, "join": link_fail if join_time is None else join_time}
         self.k, self.wp, self.res, self.budget, self.clearance = k, wp, resolution, budget, clearance
         self.area, self.lookahead = area, lookahead
         self.kind, self.altitude = kind, altitude  # kind repeats the group's: the context does not tell it
@@ -143,7 +144,7 @@ class Relays(Behavior):
                 isinstance(p, list) and len(p) in (2, 3) and all(is_num(c) for c in p) for p in t):
             return f"targets = {t!r} must be a non-empty list of [x, y] or [x, y, z] points"
         for key in ("ds", "dc", "db", "vmax", "rcol", "plan_time", "bid_time", "recruit_time", "forget_time",
-                    "link_fail", "resolution", "clearance", "lookahead", "spacing"):
+                    "link_fail", "resolution", "clearance", "lookahead", "spacing", "join_time"):
             v = params.get(key)
             if v is not None and (not is_num(v) or v <= 0):
                 return f"{key} = {v!r} must be a positive number"
@@ -224,6 +225,9 @@ class Relays(Behavior):
             raise ValueError
         up, dn = [int(x) for x in b.get("up", [])], [int(x) for x in b.get("dn", [])]
         self.heard[src] = (ctx.tick, b)
+        if src == self.parent and self.role in (WORKER, NETWORKER) and b["r"] == FREE and src != self.root:
+            self.parent, self.parent_lost = None, True  # a recruit released before it heard me take it (R5)
+            return
         if src == self.parent and self.role in (WORKER, NETWORKER):
             self.chain = b.get("c") if src != self.root else self.chain
             self.depth = int(b["d"]) + 1 if is_int(b.get("d")) else self.depth
@@ -491,7 +495,7 @@ class Relays(Behavior):
         A recruit that its child has not taken as parent within ``link_fail`` goes back to free (the root
         gives up its slot at the same time and recruits again).
         """
-        if self.role == NETWORKER and not self.acked and ctx.tick - self.joined[-1][0] > self._ticks(ctx, "fail"):
+        if self.role == NETWORKER and not self.acked and ctx.tick - self.joined[-1][0] > self._ticks(ctx, "join"):
             self.role, self.chain, self.parent, self.child, self.depth = FREE, None, None, None, None
             self.plan = self.path = self.s = self.plan_seen = None
             self.up, self.dn = [], []
@@ -559,7 +563,7 @@ class Relays(Behavior):
         if valid_plan(plan) is not None or not plan.get("pe") or "g" not in plan:
             return False
         total = planner.length([p[:2] for p in plan["pig"]])
-        if plan["g"] >= total - 1e-6:
+        if plan["g"] >= total - 1e-3:
             return False
         h = self.heard.get(base)
         have = h[1].get("n") if h is not None and is_int(h[1].get("n")) else 0
@@ -580,7 +584,7 @@ class Relays(Behavior):
         if h is not None and h[1].get("p") == p["called"]:  # the child took the recruit as its parent
             self.joined.append([ctx.tick, p["called"]])
             del self.pending[chain]
-        elif ctx.tick > p["close"] + self._ticks(ctx, "fail"):
+        elif ctx.tick > p["close"] + self._ticks(ctx, "join"):
             del self.pending[chain]
 
     def _bid(self, ctx: Context) -> None:
@@ -645,7 +649,7 @@ class Relays(Behavior):
                 u = np.zeros(2)
             else:
                 ahead = self.lookahead
-                if self.kind == "ground" and self.plan.get("g", math.inf) < cum[-1] - 1e-6:
+                if self.kind == "ground" and self.plan.get("g", math.inf) < cum[-1] - 1e-3:
                     ahead = min(ahead, self.plan["g"] - self.s)  # a ground robot stops where pi leaves the ground
                 uf = motion.u_path(p, cum, self.s, x, True, self.vmax, ctx.dt, ahead) if ahead > 0 else np.zeros(2)
                 ub = motion.u_path(p, cum, self.s, x, False, self.vmax, ctx.dt, self.lookahead)
@@ -654,8 +658,10 @@ class Relays(Behavior):
                     tc = uf
                 u = motion.preferred(uf, ub, dp, dch, self.ds, tc)
                 back = dp > self.ds
+            pending = not self.acked and dch is not None and dch > self.ds  # not a link yet: Eq. 4 does not bind
             links = [(self.sensed[j], self.dc if j == self.child and back else self.ds)
-                     for j in (self.parent, self.child) if j is not None and j in self.sensed]
+                     for j in (self.parent, self.child) if j is not None and j in self.sensed
+                     and not (j == self.child and pending)]
         u = motion.constrain(u, x, links, others, self.rcol, ctx.dt)
         u = self._clear_of_walls(ctx, x, u, lambda v: motion.constrain(v, x, links, others, self.rcol, ctx.dt))
         ctx.move([float(u[0]), float(u[1])] + ([0.0] if len(ctx.position) == 3 else []))

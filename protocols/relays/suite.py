@@ -30,12 +30,12 @@ def relays_scenario(n: int = 10, targets: list | None = None, *, ticks: int = 60
                     dt: float = 0.2, loss: float = 0.0, obstacles: list | None = None, kills: list | None = None,
                     clock: str = "lockstep", name: str = "relays", checks: list | None = None, dims: int = 2,
                     bounds: list | None = None, positions: list | None = None, groups: list | None = None,
-                    grid_map: dict | None = None, **params) -> dict:
+                    grid_map: dict | None = None, radio_range: float = 2.0, **params) -> dict:
     """A Swarm Relays run: ``n`` ground robots clustered at the root (robot 0), the targets given."""
     targets = targets if targets is not None else [[8.0, 0.0]]
     beh = {"use": "relays", "targets": targets, **params}
     run = {"name": name, "seed": seed, "clock": clock, "ticks": ticks, "dt": dt}
-    radio = {"range": 2.0, "model": "distance", "delta": 0.15, "loss": loss}
+    radio = {"range": radio_range, "model": "distance", "delta": 0.15, "loss": loss}
     if clock == "realtime":
         radio.update(latency_s=dt / 4, latency_min_s=dt / 8)
     world: dict = {"dims": dims}
@@ -45,7 +45,8 @@ def relays_scenario(n: int = 10, targets: list | None = None, *, ticks: int = 60
         world["bounds"] = bounds
     if grid_map:
         world["map"] = grid_map
-    robots = groups or [{"positions": positions or cluster(n), "speed": PAPER["vmax"], "body_radius": 0.125,
+    robots = groups or [{"positions": positions or cluster(n), "speed": params.get("vmax", PAPER["vmax"]),
+                         "body_radius": 0.125,
                          "knows_map": True, "behaviors": [beh]}]
     sc = {"run": run, "radio": radio, "world": world, "robots": robots,
           "checks": checks if checks is not None else default_checks()}

@@ -177,3 +177,17 @@ def test_connected_requires_the_chains_of_one_target_to_share_only_the_root():
     assert ok.passed
     (shared,) = oracle.connected(_chains_result({1: 3, 3: 0, 2: 3, 4: 0}))  # both workers hang on robot 3
     assert not shared.passed and "sharing a robot" in shared.detail
+
+
+def test_a_parent_that_announces_itself_free_is_lost_and_join_time_defaults_to_link_fail():
+    """R5/R6: a recruit released (free) just as its child took it must not stay that child's parent."""
+    from types import SimpleNamespace
+
+    r = Relays([[8.0, 0.0]], root=0)
+    r.role, r.chain, r.parent, r.child = "networker", 0, 7, 9
+    r._on_chain(SimpleNamespace(tick=5, id=3), 7, {"r": "free", "c": None, "p": None, "ch": None, "d": None})
+    assert r.parent is None and r.parent_lost and r.chain == 0  # the chain id is not taken from a free robot
+    r.parent = 0
+    r._on_chain(SimpleNamespace(tick=6, id=3), 0, {"r": "root", "c": None, "p": None, "ch": None, "d": 0})
+    assert r.parent == 0  # the root is never a lost parent
+    assert r.times["join"] == r.times["fail"] == 5.0 and Relays([[1, 0]], join_time=30.0).times["join"] == 30.0
