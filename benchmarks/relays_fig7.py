@@ -168,10 +168,16 @@ def plot(rows: list[dict], path: Path) -> None:
     ax.legend(fontsize=8)
     ax = axes[1]
     for chains in sorted({r["chains"] for r in rows}):
-        rs = [r for r in rows if r["arena"] == 1 and r["chains"] == chains and r.get("build_s")]
-        fs = sorted({r["F"] for r in rs})
-        if len(fs) > 1:
-            ax.scatter([r["F"] for r in rs], [r["build_s"] for r in rs], label=f"arena 1, C_n = {chains}")
+        rs = [r for r in rows if r["arena"] == 1 and r["chains"] == chains]
+        if len({r["F"] for r in rs}) < 2:
+            continue
+        built = [r for r in rs if r.get("build_s")]
+        ax.scatter([r["F"] for r in built], [r["build_s"] for r in built], label=f"arena 1, C_n = {chains}")
+        never = [r for r in rs if not r.get("build_s")]
+        if never:
+            top = max(r["build_s"] for r in built) * 1.02 if built else 1.0
+            ax.scatter([r["F"] for r in never], [top] * len(never), marker="x", color="r",
+                       label=f"not built by the end ({never[0]['ticks']} s)")
     ax.set_xlabel("failure bound F")
     ax.set_ylabel("time to build (s)")
     ax.set_title("Fig. 7 bottom, reduced (ours)")
