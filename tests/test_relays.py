@@ -116,6 +116,16 @@ def test_consecutive_networker_failures_heal(run, kill, n, loss):
     assert not set(kill) & set(chain_of(result))
 
 
+def test_a_worker_that_dies_before_recruiting_is_replaced_by_a_new_election(run):
+    """R8: robot 9 wins the election (tick 51) and dies at tick 58, alone in its chain; the root re-elects."""
+    result = run(relays_scenario(10, [[8.0, 0.0]], ticks=600, kills=[(58, [9])], checks=default_checks(heal=True)))
+    assert chain_at(result, 57) == [9, 0]  # the worker, alone with the root
+    assert all(c["passed"] for c in result.checks), result.checks
+    reps = result.reports("relays")
+    (new,) = [r for r, rep in reps.items() if rep["role"] == "worker" and r != 9]
+    assert reps[new]["won_at"] > 58 + 25 and reps[new]["reached_at"] is not None  # after link_fail (25 ticks)
+
+
 def test_realtime_small_open_field(run):
     result = run(relays_scenario(6, [[3.0, 0.0]], ticks=160, dt=0.1, clock="realtime", bid_time=1.0))
     assert passed(result)["relays.reached"], result.checks

@@ -111,7 +111,10 @@ class Relays(Behavior):
         self.heard: dict[int, tuple[int, dict]] = {}  # neighbour -> (tick, last REL_CHAIN body)
         self.sensed: dict[int, np.ndarray] = {}
         self.elections: dict[int, Election | None] = {}
-        self.settled: dict[int, int] = {}  # target -> its elected worker
+        self.settled: dict[int, int] = {}  # chain -> its elected worker
+        self.settled_at: dict[int, int] = {}  # chain -> tick its worker was (re-)elected
+        self.base_seen: dict[int, tuple[int, int]] = {}  # root: chain -> (tick, robots in it) of its base
+        self.again: dict[int, tuple[int, Election]] = {}  # chain -> (round, re-election of a dead worker)
         self.rounds: dict[int, int] = {}
         self.target_pos: dict[int, list] = {}
         self.plan: dict | None = None
@@ -225,6 +228,8 @@ class Relays(Behavior):
             raise ValueError
         up, dn = [int(x) for x in b.get("up", [])], [int(x) for x in b.get("dn", [])]
         self.heard[src] = (ctx.tick, b)
+        if self.role == ROOT and b.get("p") == ctx.id and is_int(b.get("c")) and b["r"] in (WORKER, NETWORKER):
+            self.base_seen[b["c"]] = (ctx.tick, int(b["n"]) if is_int(b.get("n")) else 0)
         if src == self.parent and self.role in (WORKER, NETWORKER) and b["r"] == FREE and src != self.root:
             self.parent, self.parent_lost = None, True  # a recruit released before it heard me take it (R5)
             return
@@ -304,6 +309,7 @@ class Relays(Behavior):
             for t, pos in enumerate(self.targets):
                 self.rel.put(f"target/{t}", {"pos": pos, "at": ctx.tick})
         self._elect(ctx)
+        self._elect_again(ctx)
         if self.role == WORKER and self.plan is None and self.won_at is not None \
                 and ctx.tick >= self.won_at + self._ticks(ctx, "plan") and self.plan_status is None:
             self._make_plan(ctx)
@@ -361,7 +367,7 @@ class Relays(Behavior):
             if el is None or t in self.settled or el.winner is None:
                 continue
             if el.winner not in self.settled.values():
-                self.settled[t] = el.winner
+                self.settled[t], self.settled_at[t] = el.winner, ctx.tick
                 if el.winner == ctx.id and self.role == FREE:
                     self.role, self.chain, self.parent, self.child, self.depth = WORKER, t, self.root, None, 1
                     self.up, self.dn = [ctx.id, self.root], [ctx.id]
@@ -392,12 +398,65 @@ class Relays(Behavior):
         for t, el in sorted(self.fly.items()):
             if el.elected_at is None:
                 el.step(ctx)
+                if el.elected_at is not None:
+                    self.settled_at[t] = ctx.tick
                 if el.elected_at is not None and el.winner == ctx.id and self.role == FREE:
                     self.role, self.chain, self.parent, self.child, self.depth = WORKER, t, self.root, None, 1
                     self.up, self.dn = [ctx.id, self.root], [ctx.id]
                     self.won_at, self.plan_status = ctx.tick, "ok"
                     self.slots, self.choice = {}, None
                     self._load_plan(ctx)
+
+    def _elect_again(self, ctx: Context) -> None:
+        """R8: a chain whose worker died before it recruited anyone gets a new worker.
+
+        The root watches each elected chain's base (the chain robot whose parent is the root, from its
+        REL_CHAIN): when none was heard within ``link_fail`` of the election, or the last one heard was the
+        worker alone (n = 1) and it has been silent for ``link_fail``, the worker is dead and nobody carries
+        its chain; the root writes ``again/<c>`` = {at, k} and every robot runs the election
+        ``worker/<c>/again<k>`` among the free robots (lowest distance to the target). The winner takes the
+        chain's plan from the stigmergy, or plans it when there is none. A chain with networkers heals by R6.
+        """
+        fail = self._ticks(ctx, "fail")
+        if self.role == ROOT:
+            for c in sorted(self.settled_at):
+                since, seen = self.settled_at[c], self.base_seen.get(c)
+                busy = (c in self.fly and self.fly[c].elected_at is None) or (
+                    c in self.again and self.again[c][1].elected_at is None)
+                plan = self.rel.peek(f"plan/{c}")
+                if busy or (isinstance(plan, dict) and plan.get("pe") is False):
+                    continue
+                if (seen is None or seen[0] < since) and ctx.tick - since > fail or (
+                        seen is not None and seen[0] >= since and seen[1] == 1 and ctx.tick - seen[0] > fail):
+                    k = self.again[c][0] + 1 if c in self.again else 1
+                    self.rel.put(f"again/{c}", {"at": ctx.tick + 1, "k": k})
+                    self.base_seen.pop(c, None)
+                    self.settled_at[c] = ctx.tick + self._ticks(ctx, "bid") + 1
+        for c in sorted(self.settled):
+            entry = self.rel.peek(f"again/{c}")
+            if isinstance(entry, dict) and is_int(entry.get("k")) and is_int(entry.get("at")) \
+                    and entry["k"] > (self.again[c][0] if c in self.again else 0):
+                pos = self.target_pos[c]
+
+                def bid(cx: Context, pos=pos) -> float | None:
+                    return None if cx.id == self.root or self.role != FREE else float(math.dist(self._pos(cx), pos[:2]))
+
+                self.again[c] = (entry["k"], Election(self.vote, f"worker/{c}/again{entry['k']}", bid, entry["at"],
+                                                      self._ticks(ctx, "bid")))
+        for c, (_k, el) in sorted(self.again.items()):
+            if el.elected_at is None:
+                el.step(ctx)
+                if el.elected_at is None or el.winner is None:
+                    continue
+                self.settled[c], self.settled_at[c] = el.winner, ctx.tick
+                if el.winner == ctx.id and self.role == FREE:
+                    self.role, self.chain, self.parent, self.child, self.depth = WORKER, c, self.root, None, 1
+                    self.up, self.dn = [ctx.id, self.root], [ctx.id]
+                    self.won_at, self.plan_status = ctx.tick, None
+                    self.slots, self.choice = {}, None
+                    self._load_plan(ctx)
+                    if self.plan is not None:
+                        self.plan_status = "ok"
 
     def _bidder(self, pos: list):
         def bid(c: Context) -> float | None:

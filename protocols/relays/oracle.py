@@ -168,7 +168,9 @@ def reached(result: Result, tol: float | None = None, slack: float = 1.0) -> lis
                 first_reach[c] = t
     for c in range(len(targets) * cn):
         target = targets[c // cn]
-        rep = next((r for r in reports.values() if r.get("chain") == c and r.get("role") == "worker"), None)
+        rep = next((r for r in reports.values() if r.get("chain") == c and r.get("role") == "worker"
+                    and r.get("path")), None)  # a worker that died before planning is no worker to judge by
+        rep = rep or next((r for r in reports.values() if r.get("chain") == c and r.get("role") == "worker"), None)
         if rep is None:  # no worker now: the one that planned says why (a hand-over to a flying robot is no reason)
             rep = next((r for r in reports.values() if r.get("chain") == c and r.get("plan_status")
                         and not str(r["plan_status"]).startswith("handed")), None)
