@@ -34,7 +34,11 @@ Rules:
   its parent moves back along pi (Eq. 6 with d_P = inf) until a robot of its C_local up-list (or the root)
   is within d_s, then takes it as parent; a robot that lost its child acts as a temporary worker (moves
   forward, recruits) until a robot names it as parent; a temporary worker that reaches the target becomes
-  the worker.
+  the worker. A parent that announces itself free (a recruit released as its child took it) is lost too.
+* R7 redundant chains - ``chains_per_target`` = C_n: chain c is copy c % C_n of target c // C_n, with its own
+  election, plan and links; copy j runs (j - (C_n - 1)/2) * ``spacing`` beside pi (planner.offset).
+* R8 re-election - the root watches each chain's base; a worker dead alone (or never heard) gets a successor
+  by the election ``worker/<c>/again<k>`` announced in ``again/<c>``.
 """
 
 from __future__ import annotations
