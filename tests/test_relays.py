@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from protocols.relays.behavior import Relays
-from protocols.relays.suite import C_SHAPE, default_checks, relays_scenario, wall_scenario
+from protocols.relays.suite import C_SHAPE, default_checks, maze_scenario, relays_scenario, wall_scenario
 
 pytestmark = pytest.mark.slow  # every test runs scenarios over Zenoh
 
@@ -34,6 +36,32 @@ def test_open_field_10_robots_chain_built_target_reached_same_hash_with_1_and_3_
     assert len(chain) - 1 >= 6  # ceil(8 / 1.4) = 6 links at least
     three = run(sc, processes=3)
     assert three["trace_hash"] == one["trace_hash"]
+
+
+def test_two_redundant_chains_to_one_target_both_built_both_reach_disjoint_links_within_db(run):
+    """Sec. III-C, C_n = 2: chains 0 and 1 serve target 0, each with its own worker, links and side of pi."""
+    result = run(relays_scenario(18, [[8.0, 0.0]], ticks=400, chains_per_target=2))
+    assert all(c["passed"] for c in result.checks), result.checks
+    reached = [c for c in result.checks if c["name"] == "relays.reached"]
+    assert len(reached) == 2 and all(c["value"] is not None for c in reached)
+    assert [c for c in result.checks if c["name"] == "relays.links_within_db"][0]["value"] <= 1.8
+    a, b = chain_of(result, 0), chain_of(result, 1)
+    assert a[-1] == b[-1] == 0 and not set(a[:-1]) & set(b[:-1])  # only the root is shared
+    assert len(a) - 1 >= 6 and len(b) - 1 >= 6
+    final = {row[0]: row[1:] for row in result.trace[-1]["pos"]}
+    assert final[a[0]][1] < 0 < final[b[0]][1]  # copy 0 right of pi, copy 1 left
+
+
+def test_a_generated_maze_the_chain_follows_the_corridors_to_the_far_corner(run):
+    """The full suite's maze case: a 3 x 3 perfect maze, root and target in opposite corners, 16 robots.
+
+    Corridors 2 m, walls 1 m; the path winds (13.5 m for an 8.5 m straight line); no robot touches a wall.
+    """
+    result = run(maze_scenario(16, 3, 3, maze_seed=0, ticks=450))
+    assert all(c["passed"] for c in result.checks), result.checks
+    path = [r["path"] for r in result.reports("relays").values() if r["role"] == "worker"][0]
+    assert len(path) >= 5 and sum(math.dist(a[:2], b[:2]) for a, b in zip(path, path[1:], strict=False)) > 12.0
+    assert len(chain_of(result)) - 1 >= 10  # ceil(13.5 / 1.4) links
 
 
 def test_c_shaped_obstacle_chain_goes_around_without_touching_it(run):
@@ -86,6 +114,16 @@ def test_consecutive_networker_failures_heal(run, kill, n, loss):
     reps = result.reports("relays")
     assert any(rep["splices"] for rep in reps.values())
     assert not set(kill) & set(chain_of(result))
+
+
+def test_a_worker_that_dies_before_recruiting_is_replaced_by_a_new_election(run):
+    """R8: robot 9 wins the election (tick 51) and dies at tick 58, alone in its chain; the root re-elects."""
+    result = run(relays_scenario(10, [[8.0, 0.0]], ticks=600, kills=[(58, [9])], checks=default_checks(heal=True)))
+    assert chain_at(result, 57) == [9, 0]  # the worker, alone with the root
+    assert all(c["passed"] for c in result.checks), result.checks
+    reps = result.reports("relays")
+    (new,) = [r for r, rep in reps.items() if rep["role"] == "worker" and r != 9]
+    assert reps[new]["won_at"] > 58 + 25 and reps[new]["reached_at"] is not None  # after link_fail (25 ticks)
 
 
 def test_realtime_small_open_field(run):

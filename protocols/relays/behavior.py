@@ -34,7 +34,11 @@ Rules:
   its parent moves back along pi (Eq. 6 with d_P = inf) until a robot of its C_local up-list (or the root)
   is within d_s, then takes it as parent; a robot that lost its child acts as a temporary worker (moves
   forward, recruits) until a robot names it as parent; a temporary worker that reaches the target becomes
-  the worker.
+  the worker. A parent that announces itself free (a recruit released as its child took it) is lost too.
+* R7 redundant chains - ``chains_per_target`` = C_n: chain c is copy c % C_n of target c // C_n, with its own
+  election, plan and links; copy j runs (j - (C_n - 1)/2) * ``spacing`` beside pi (planner.offset).
+* R8 re-election - the root watches each chain's base; a worker dead alone (or never heard) gets a successor
+  by the election ``worker/<c>/again<k>`` announced in ``again/<c>``.
 """
 
 from __future__ import annotations
@@ -90,12 +94,14 @@ class Relays(Behavior):
                  bid_time: float = 10.0, recruit_time: float = 1.0, forget_time: float = 3.0,
                  link_fail: float = 5.0, k: int = 8, wp: bool = False, resolution: float = 0.25,
                  budget: int = 20000, clearance: float = 0.4, area: list | None = None, lookahead: float = 0.5,
-                 kind: str = "ground", altitude: float = 0.7):
+                 kind: str = "ground", altitude: float = 0.7, chains_per_target: int = 1, spacing: float = 0.3,
+                 join_time: float | None = None):
         self.targets = [[float(c) for c in t] for t in targets]
+        self.cn, self.spacing = chains_per_target, spacing  # C_n chains per target, side by side (Sec. III-C)
         self.root, self.at = root, at
         self.ds, self.dc, self.db, self.vmax, self.rcol = ds, dc, db, vmax, rcol
         self.times = {"plan": plan_time, "bid": bid_time, "recruit": recruit_time, "forget": forget_time,
-                      "fail": link_fail}
+                      "fail": link_fail, "join": link_fail if join_time is None else join_time}
         self.k, self.wp, self.res, self.budget, self.clearance = k, wp, resolution, budget, clearance
         self.area, self.lookahead = area, lookahead
         self.kind, self.altitude = kind, altitude  # kind repeats the group's: the context does not tell it
@@ -109,7 +115,10 @@ class Relays(Behavior):
         self.heard: dict[int, tuple[int, dict]] = {}  # neighbour -> (tick, last REL_CHAIN body)
         self.sensed: dict[int, np.ndarray] = {}
         self.elections: dict[int, Election | None] = {}
-        self.settled: dict[int, int] = {}  # target -> its elected worker
+        self.settled: dict[int, int] = {}  # chain -> its elected worker
+        self.settled_at: dict[int, int] = {}  # chain -> tick its worker was (re-)elected
+        self.base_seen: dict[int, tuple[int, int]] = {}  # root: chain -> (tick, robots in it) of its base
+        self.again: dict[int, tuple[int, Election]] = {}  # chain -> (round, re-election of a dead worker)
         self.rounds: dict[int, int] = {}
         self.target_pos: dict[int, list] = {}
         self.plan: dict | None = None
@@ -142,14 +151,14 @@ class Relays(Behavior):
                 isinstance(p, list) and len(p) in (2, 3) and all(is_num(c) for c in p) for p in t):
             return f"targets = {t!r} must be a non-empty list of [x, y] or [x, y, z] points"
         for key in ("ds", "dc", "db", "vmax", "rcol", "plan_time", "bid_time", "recruit_time", "forget_time",
-                    "link_fail", "resolution", "clearance", "lookahead"):
+                    "link_fail", "resolution", "clearance", "lookahead", "spacing", "join_time"):
             v = params.get(key)
             if v is not None and (not is_num(v) or v <= 0):
                 return f"{key} = {v!r} must be a positive number"
         ds, dc, db = params.get("ds", 1.4), params.get("dc", 1.6), params.get("db", 1.8)
         if not ds < dc < db:
             return f"zones must satisfy ds < dc < db (got ds = {ds}, dc = {dc}, db = {db})"
-        for key, low in (("root", 0), ("at", 0), ("k", 1), ("budget", 1)):
+        for key, low in (("root", 0), ("at", 0), ("k", 1), ("budget", 1), ("chains_per_target", 1)):
             v = params.get(key)
             if v is not None and (not is_int(v) or v < low):
                 return f"{key} = {v!r} must be an integer >= {low}"
@@ -165,6 +174,10 @@ class Relays(Behavior):
         return None
 
     # ------------------------------------------------------------------ helpers
+    def side(self, chain: int) -> float:
+        """Chain c = t C_n + j is copy j of target t; it runs (j - (C_n - 1)/2) * spacing to the left of pi."""
+        return (chain % self.cn - (self.cn - 1) / 2) * self.spacing
+
     def _ticks(self, ctx: Context, what: str) -> int:
         return max(1, round(self.times[what] / ctx.dt))
 
@@ -219,6 +232,11 @@ class Relays(Behavior):
             raise ValueError
         up, dn = [int(x) for x in b.get("up", [])], [int(x) for x in b.get("dn", [])]
         self.heard[src] = (ctx.tick, b)
+        if self.role == ROOT and b.get("p") == ctx.id and is_int(b.get("c")) and b["r"] in (WORKER, NETWORKER):
+            self.base_seen[b["c"]] = (ctx.tick, int(b["n"]) if is_int(b.get("n")) else 0)
+        if src == self.parent and self.role in (WORKER, NETWORKER) and b["r"] == FREE and src != self.root:
+            self.parent, self.parent_lost = None, True  # a recruit released before it heard me take it (R5)
+            return
         if src == self.parent and self.role in (WORKER, NETWORKER):
             self.chain = b.get("c") if src != self.root else self.chain
             self.depth = int(b["d"]) + 1 if is_int(b.get("d")) else self.depth
@@ -295,6 +313,7 @@ class Relays(Behavior):
             for t, pos in enumerate(self.targets):
                 self.rel.put(f"target/{t}", {"pos": pos, "at": ctx.tick})
         self._elect(ctx)
+        self._elect_again(ctx)
         if self.role == WORKER and self.plan is None and self.won_at is not None \
                 and ctx.tick >= self.won_at + self._ticks(ctx, "plan") and self.plan_status is None:
             self._make_plan(ctx)
@@ -327,10 +346,10 @@ class Relays(Behavior):
         yet taken, in rounds of ``bid_time``.
         """
         bid_ticks = self._ticks(ctx, "bid")
-        for t in range(len(self.targets)):
+        for t in range(len(self.targets) * self.cn):  # chain t is copy t % C_n of target t // C_n
             if t in self.elections:
                 continue
-            entry = self.rel.peek(f"target/{t}")
+            entry = self.rel.peek(f"target/{t // self.cn}")
             if not isinstance(entry, dict) or not is_int(entry.get("at")):
                 break
             pos = entry.get("pos")
@@ -352,7 +371,7 @@ class Relays(Behavior):
             if el is None or t in self.settled or el.winner is None:
                 continue
             if el.winner not in self.settled.values():
-                self.settled[t] = el.winner
+                self.settled[t], self.settled_at[t] = el.winner, ctx.tick
                 if el.winner == ctx.id and self.role == FREE:
                     self.role, self.chain, self.parent, self.child, self.depth = WORKER, t, self.root, None, 1
                     self.up, self.dn = [ctx.id, self.root], [ctx.id]
@@ -383,12 +402,65 @@ class Relays(Behavior):
         for t, el in sorted(self.fly.items()):
             if el.elected_at is None:
                 el.step(ctx)
+                if el.elected_at is not None:
+                    self.settled_at[t] = ctx.tick
                 if el.elected_at is not None and el.winner == ctx.id and self.role == FREE:
                     self.role, self.chain, self.parent, self.child, self.depth = WORKER, t, self.root, None, 1
                     self.up, self.dn = [ctx.id, self.root], [ctx.id]
                     self.won_at, self.plan_status = ctx.tick, "ok"
                     self.slots, self.choice = {}, None
                     self._load_plan(ctx)
+
+    def _elect_again(self, ctx: Context) -> None:
+        """R8: a chain whose worker died before it recruited anyone gets a new worker.
+
+        The root watches each elected chain's base (the chain robot whose parent is the root, from its
+        REL_CHAIN): when none was heard within ``link_fail`` of the election, or the last one heard was the
+        worker alone (n = 1) and it has been silent for ``link_fail``, the worker is dead and nobody carries
+        its chain; the root writes ``again/<c>`` = {at, k} and every robot runs the election
+        ``worker/<c>/again<k>`` among the free robots (lowest distance to the target). The winner takes the
+        chain's plan from the stigmergy, or plans it when there is none. A chain with networkers heals by R6.
+        """
+        fail = self._ticks(ctx, "fail")
+        if self.role == ROOT:
+            for c in sorted(self.settled_at):
+                since, seen = self.settled_at[c], self.base_seen.get(c)
+                busy = (c in self.fly and self.fly[c].elected_at is None) or (
+                    c in self.again and self.again[c][1].elected_at is None)
+                plan = self.rel.peek(f"plan/{c}")
+                if busy or (isinstance(plan, dict) and plan.get("pe") is False):
+                    continue
+                if (seen is None or seen[0] < since) and ctx.tick - since > fail or (
+                        seen is not None and seen[0] >= since and seen[1] == 1 and ctx.tick - seen[0] > fail):
+                    k = self.again[c][0] + 1 if c in self.again else 1
+                    self.rel.put(f"again/{c}", {"at": ctx.tick + 1, "k": k})
+                    self.base_seen.pop(c, None)
+                    self.settled_at[c] = ctx.tick + self._ticks(ctx, "bid") + 1
+        for c in sorted(self.settled):
+            entry = self.rel.peek(f"again/{c}")
+            if isinstance(entry, dict) and is_int(entry.get("k")) and is_int(entry.get("at")) \
+                    and entry["k"] > (self.again[c][0] if c in self.again else 0):
+                pos = self.target_pos[c]
+
+                def bid(cx: Context, pos=pos) -> float | None:
+                    return None if cx.id == self.root or self.role != FREE else float(math.dist(self._pos(cx), pos[:2]))
+
+                self.again[c] = (entry["k"], Election(self.vote, f"worker/{c}/again{entry['k']}", bid, entry["at"],
+                                                      self._ticks(ctx, "bid")))
+        for c, (_k, el) in sorted(self.again.items()):
+            if el.elected_at is None:
+                el.step(ctx)
+                if el.elected_at is None or el.winner is None:
+                    continue
+                self.settled[c], self.settled_at[c] = el.winner, ctx.tick
+                if el.winner == ctx.id and self.role == FREE:
+                    self.role, self.chain, self.parent, self.child, self.depth = WORKER, c, self.root, None, 1
+                    self.up, self.dn = [ctx.id, self.root], [ctx.id]
+                    self.won_at, self.plan_status = ctx.tick, None
+                    self.slots, self.choice = {}, None
+                    self._load_plan(ctx)
+                    if self.plan is not None:
+                        self.plan_status = "ok"
 
     def _bidder(self, pos: list):
         def bid(c: Context) -> float | None:
@@ -400,8 +472,8 @@ class Relays(Behavior):
 
     def _make_plan(self, ctx: Context) -> None:
         """R2: reachability and A* on the known map, then the tuple <pi, PE, pi_g> into the stigmergy."""
-        target = self.targets[self.chain] if self.chain < len(self.targets) else None
-        entry = self.rel.peek(f"target/{self.chain}")
+        target = self.targets[self.chain // self.cn] if self.chain // self.cn < len(self.targets) else None
+        entry = self.rel.peek(f"target/{self.chain // self.cn}")
         if isinstance(entry, dict):
             target = entry["pos"]
         start = self.root_pos if self.root_pos is not None else self._pos(ctx)
@@ -424,14 +496,12 @@ class Relays(Behavior):
         elif inside(target[0], target[1]):
             why = "target inside an obstacle"
         else:
-            grid = planner.Grid(area, self.res, inside, self.clearance)
-            status, pts = planner.plan(grid, list(start), list(target[:2]), self.budget)
-            air = None
-            if status == "unreachable" and m is not None and m.dims == 3:  # in R^3, over the obstacles (Sec. IV)
-                h = self.altitude
-                grid = planner.Grid(area, self.res, lambda x, y: m.inside([x, y, h], ground=False), self.clearance)
-                status, pts = planner.plan(grid, list(start), list(target[:2]), self.budget)
-                air = h
+            side = self.side(self.chain)
+            status, pts, air = self._plan_grid(area, inside, m, start, target, abs(side))
+            if side and status == "ok":  # planned with |side| more clearance, so the shifted path keeps its own
+                pts = planner.offset(pts, side)
+            elif side:  # too narrow for side-by-side chains: this copy follows pi itself
+                status, pts, air = self._plan_grid(area, inside, m, start, target, 0.0)
             why = None if status == "ok" else {"outside": "target outside the map", "unreachable": "unreachable",
                                                "budget": "planner budget exhausted"}[status]
         self.plan_status = why or "ok"
@@ -448,6 +518,19 @@ class Relays(Behavior):
         self.planned_at = ctx.tick
         self.rel.put(f"plan/{self.chain}", value)
         self._load_plan(ctx)
+
+    def _plan_grid(self, area, inside, m, start, target, extra: float):
+        """Flood fill + A* on the ground, else (3-D world) at the flying altitude; clearance + ``extra``."""
+        grid = planner.Grid(area, self.res, inside, self.clearance + extra)
+        status, pts = planner.plan(grid, list(start), list(target[:2]), self.budget)
+        air = None
+        if status == "unreachable" and m is not None and m.dims == 3:  # in R^3, over the obstacles (Sec. IV)
+            h = self.altitude
+            grid = planner.Grid(area, self.res, lambda x, y: m.inside([x, y, h], ground=False),
+                                self.clearance + extra)
+            status, pts = planner.plan(grid, list(start), list(target[:2]), self.budget)
+            air = h
+        return status, pts, air
 
     def _load_plan(self, ctx: Context) -> None:
         """R3: read this chain's plan tuple; refuse a malformed one (counted once per version)."""
@@ -475,7 +558,7 @@ class Relays(Behavior):
         A recruit that its child has not taken as parent within ``link_fail`` goes back to free (the root
         gives up its slot at the same time and recruits again).
         """
-        if self.role == NETWORKER and not self.acked and ctx.tick - self.joined[-1][0] > self._ticks(ctx, "fail"):
+        if self.role == NETWORKER and not self.acked and ctx.tick - self.joined[-1][0] > self._ticks(ctx, "join"):
             self.role, self.chain, self.parent, self.child, self.depth = FREE, None, None, None, None
             self.plan = self.path = self.s = self.plan_seen = None
             self.up, self.dn = [], []
@@ -543,7 +626,7 @@ class Relays(Behavior):
         if valid_plan(plan) is not None or not plan.get("pe") or "g" not in plan:
             return False
         total = planner.length([p[:2] for p in plan["pig"]])
-        if plan["g"] >= total - 1e-6:
+        if plan["g"] >= total - 1e-3:
             return False
         h = self.heard.get(base)
         have = h[1].get("n") if h is not None and is_int(h[1].get("n")) else 0
@@ -564,7 +647,7 @@ class Relays(Behavior):
         if h is not None and h[1].get("p") == p["called"]:  # the child took the recruit as its parent
             self.joined.append([ctx.tick, p["called"]])
             del self.pending[chain]
-        elif ctx.tick > p["close"] + self._ticks(ctx, "fail"):
+        elif ctx.tick > p["close"] + self._ticks(ctx, "join"):
             del self.pending[chain]
 
     def _bid(self, ctx: Context) -> None:
@@ -629,7 +712,7 @@ class Relays(Behavior):
                 u = np.zeros(2)
             else:
                 ahead = self.lookahead
-                if self.kind == "ground" and self.plan.get("g", math.inf) < cum[-1] - 1e-6:
+                if self.kind == "ground" and self.plan.get("g", math.inf) < cum[-1] - 1e-3:
                     ahead = min(ahead, self.plan["g"] - self.s)  # a ground robot stops where pi leaves the ground
                 uf = motion.u_path(p, cum, self.s, x, True, self.vmax, ctx.dt, ahead) if ahead > 0 else np.zeros(2)
                 ub = motion.u_path(p, cum, self.s, x, False, self.vmax, ctx.dt, self.lookahead)
@@ -638,8 +721,10 @@ class Relays(Behavior):
                     tc = uf
                 u = motion.preferred(uf, ub, dp, dch, self.ds, tc)
                 back = dp > self.ds
+            pending = not self.acked and dch is not None and dch > self.ds  # not a link yet: Eq. 4 does not bind
             links = [(self.sensed[j], self.dc if j == self.child and back else self.ds)
-                     for j in (self.parent, self.child) if j is not None and j in self.sensed]
+                     for j in (self.parent, self.child) if j is not None and j in self.sensed
+                     and not (j == self.child and pending)]
         u = motion.constrain(u, x, links, others, self.rcol, ctx.dt)
         u = self._clear_of_walls(ctx, x, u, lambda v: motion.constrain(v, x, links, others, self.rcol, ctx.dt))
         ctx.move([float(u[0]), float(u[1])] + ([0.0] if len(ctx.position) == 3 else []))

@@ -32,6 +32,20 @@ def _params(result: Result) -> dict:
         return {}
 
 
+def _per_target(p: dict) -> int:
+    """C_n, the chains per target: chain c serves target c // C_n (status contract)."""
+    return int(p.get("chains_per_target", 1))
+
+
+def _tolerance(p: dict) -> float:
+    """How near its target a worker must come: r_col, widened when C_n workers share one target.
+
+    C_n bodies cannot all stand within r_col of one point; they stand side by side ``spacing`` apart (0.3 m,
+    the reference code's strand offset), so the outermost is (C_n - 1)/2 * spacing off the target.
+    """
+    return p.get("rcol", 0.25) + (_per_target(p) - 1) / 2 * p.get("spacing", 0.3)
+
+
 def _chains(status: dict[int, dict], pos: dict) -> dict[int, list[list[int]]]:
     """Map chain -> one path per alive robot whose role is worker for it.
 
@@ -71,6 +85,8 @@ def _kills(result: Result) -> list[int]:
 def connected(result: Result, heal_window: float = 60.0) -> list[Outcome]:
     """Every chain is a whole path root -> worker in the radio graph at every tick.
 
+    With C_n chains per target (``chains_per_target``), the chains of one target share no robot but the root.
+
     Ticks within ``heal_window`` seconds after a kill are not judged; the value is the longest
     disconnection outside them (ticks).
     """
@@ -78,14 +94,20 @@ def connected(result: Result, heal_window: float = 60.0) -> list[Outcome]:
     win = round(heal_window / dt)
     windows = [(k, k + win) for k in _kills(result)]
     rng = result.ranges()
-    longest, run, first, ticks, broken = 0, {}, None, 0, 0
+    cn = _per_target(_params(result))
+    longest, run, first, ticks, broken, shared = 0, {}, None, 0, 0, 0
     for t, pos, status in _timeline(result):
         if any(a <= t <= b for a, b in windows):
             run = {}
             continue
-        for c, path in _chains(status, pos).items():
+        chains = _chains(status, pos)
+        for c, path in chains.items():
             ticks += 1
-            if _whole(path, pos, status, rng):
+            mine = {r for q in path for r in q if status.get(r, {}).get("role") != "root"}
+            overlap = any(mine & set(q) for c2, p2 in chains.items() if c2 != c and c2 // cn == c // cn
+                          for q in p2)  # redundant chains of one target share only the root
+            shared += overlap
+            if _whole(path, pos, status, rng) and not overlap:
                 run[c] = 0
             else:
                 broken += 1
@@ -95,6 +117,8 @@ def connected(result: Result, heal_window: float = 60.0) -> list[Outcome]:
     ok = longest == 0 and ticks > 0
     return [Outcome("relays.connected", ok, longest, 0,
                     f"{ticks} chain-ticks judged, {broken} broken; longest disconnection {longest} ticks"
+                    + (f"; {shared} chain-ticks sharing a robot with another chain of the same target" if shared
+                       else "")
                     + (f" (healing windows of {heal_window} s after kills {_kills(result)} excluded)"
                        if windows else "")
                     + ("" if ticks else "; no chain was ever built"), first)]
@@ -129,8 +153,9 @@ def reached(result: Result, tol: float | None = None, slack: float = 1.0) -> lis
     times ``slack``. An unreachable target is reported so by its worker (plan_status), not looped on.
     """
     p = _params(result)
+    cn = _per_target(p)
     targets = p.get("targets", [])
-    tol = tol if tol is not None else p.get("rcol", 0.25)
+    tol = tol if tol is not None else _tolerance(p)
     dt = result["scenario"]["run"].get("dt", 1.0)
     reports = result.reports("relays")
     out = []
@@ -138,17 +163,20 @@ def reached(result: Result, tol: float | None = None, slack: float = 1.0) -> lis
     for t, pos, status in _timeline(result):
         for rid, s in status.items():
             c = s.get("chain")
-            if s.get("role") == "worker" and c is not None and c < len(targets) and rid in pos \
-                    and c not in first_reach and math.dist(pos[rid][:2], targets[c][:2]) <= tol:
+            if s.get("role") == "worker" and is_chain(c, len(targets) * cn) and rid in pos \
+                    and c not in first_reach and math.dist(pos[rid][:2], targets[c // cn][:2]) <= tol:
                 first_reach[c] = t
-    for c, target in enumerate(targets):
-        rep = next((r for r in reports.values() if r.get("chain") == c and r.get("role") == "worker"), None)
+    for c in range(len(targets) * cn):
+        target = targets[c // cn]
+        rep = next((r for r in reports.values() if r.get("chain") == c and r.get("role") == "worker"
+                    and r.get("path")), None)  # a worker that died before planning is no worker to judge by
+        rep = rep or next((r for r in reports.values() if r.get("chain") == c and r.get("role") == "worker"), None)
         if rep is None:  # no worker now: the one that planned says why (a hand-over to a flying robot is no reason)
             rep = next((r for r in reports.values() if r.get("chain") == c and r.get("plan_status")
                         and not str(r["plan_status"]).startswith("handed")), None)
         if rep is not None and rep.get("plan_status") not in ("ok", None):
             out.append(Outcome("relays.reached", True, None, None,
-                               f"target {c} {target}: reported {rep['plan_status']!r}, no chain built"))
+                               f"{_name(c, cn)} {target}: reported {rep['plan_status']!r}, no chain built"))
             continue
         path = rep.get("path") if rep else None
         dpath = sum(math.dist(a[:2], b[:2]) for a, b in zip(path, path[1:], strict=False)) if path else math.nan
@@ -161,10 +189,18 @@ def reached(result: Result, tol: float | None = None, slack: float = 1.0) -> lis
         ok = got is not None and got * dt <= bound_s
         out.append(Outcome("relays.reached", ok, None if got is None else round(got * dt, 3),
                            round(bound_s, 3) if math.isfinite(bound_s) else None,
-                           f"target {c} {target}: worker within {tol} m at "
+                           f"{_name(c, cn)} {target}: worker within {tol} m at "
                            f"{'never' if got is None else f'{got * dt:.1f} s'}; path {dpath:.2f} m, n = {n}",
                            None if ok else got, op="<="))
     return out or [Outcome("relays.reached", False, None, None, "no target")]
+
+
+def is_chain(c, n: int) -> bool:
+    return isinstance(c, int) and 0 <= c < n
+
+
+def _name(c: int, cn: int) -> str:
+    return f"target {c}" if cn == 1 else f"chain {c} (target {c // cn})"
 
 
 def healed(result: Result) -> list[Outcome]:
@@ -174,16 +210,16 @@ def healed(result: Result) -> list[Outcome]:
     kills = _kills(result)
     if not kills:
         return [Outcome("relays.healed", True, None, None, "no failure injected")]
-    targets = _params(result).get("targets", [])
-    tol = _params(result).get("rcol", 0.25)
+    p = _params(result)
+    targets, cn, tol = p.get("targets", []), _per_target(p), _tolerance(p)
     pending = list(kills)
     times, back = {}, {}
     for t, pos, status in _timeline(result):
         if times and len(back) < len(times):  # after healing: the worker back at its target
             for rid, s in status.items():
                 c = s.get("chain")
-                if s.get("role") == "worker" and c is not None and c < len(targets) and rid in pos \
-                        and math.dist(pos[rid][:2], targets[c][:2]) <= tol:
+                if s.get("role") == "worker" and is_chain(c, len(targets) * cn) and rid in pos \
+                        and math.dist(pos[rid][:2], targets[c // cn][:2]) <= tol:
                     for k in times:
                         back.setdefault(k, t)
         if not pending or t <= pending[0]:

@@ -15,6 +15,8 @@ import math
 from collections import deque
 from collections.abc import Callable
 
+import numpy as np
+
 
 class Grid:
     """Occupancy of the area [x0, x1] x [y0, y1] at resolution ``res`` (blocked cells in a set)."""
@@ -178,3 +180,28 @@ def ground_reach(path: list[list[float]], blocked_at, clearance: float, step: fl
                 return max(0.0, s + t * seg - clearance)
         s += seg
     return s
+
+
+def offset(path: list[list[float]], o: float, miter: float = 2.0) -> list[list[float]]:
+    """The path shifted sideways by ``o`` (to its left when o > 0): one of C_n side-by-side chains (Sec. III-C).
+
+    Each waypoint moves along the bisector of its two segments' left normals by o / cos(half the turn), so
+    every segment stays parallel to the original at distance |o|; the factor is capped at ``miter`` (a sharp
+    turn). Repeated points are dropped first.
+    """
+    p = np.asarray(path, dtype=float)
+    if len(p):
+        p = p[np.r_[True, np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1) > 1e-12]]
+    if o == 0 or len(p) < 2:
+        return [[round(float(v), 4) for v in q] for q in p]
+    seg = np.diff(p[:, :2], axis=0)
+    unit = seg / np.linalg.norm(seg, axis=1)[:, None]
+    normal = np.column_stack([-unit[:, 1], unit[:, 0]])
+    out = p.copy()
+    for i in range(len(p)):
+        n = [normal[j] for j in (i - 1, i) if 0 <= j < len(normal)]
+        b = np.sum(n, axis=0)
+        nb = float(np.linalg.norm(b))
+        b = n[0] if nb < 1e-9 else b / nb  # a U-turn: the two normals cancel; keep the incoming one
+        out[i, :2] = p[i, :2] + o * min(miter, 1.0 / max(float(np.dot(b, n[0])), 1e-9)) * b
+    return [[round(float(v), 4) for v in q] for q in out]

@@ -8,6 +8,8 @@ target, or null) and ``plan_status``.
 
 from __future__ import annotations
 
+import math
+
 from swarmactors.conformance import Case, Family
 
 # The paper's parameters (002 Sec. V); our tick is dt = 0.2 s (ARGoS' step is 0.1 s).
@@ -28,12 +30,12 @@ def relays_scenario(n: int = 10, targets: list | None = None, *, ticks: int = 60
                     dt: float = 0.2, loss: float = 0.0, obstacles: list | None = None, kills: list | None = None,
                     clock: str = "lockstep", name: str = "relays", checks: list | None = None, dims: int = 2,
                     bounds: list | None = None, positions: list | None = None, groups: list | None = None,
-                    **params) -> dict:
+                    grid_map: dict | None = None, radio_range: float = 2.0, **params) -> dict:
     """A Swarm Relays run: ``n`` ground robots clustered at the root (robot 0), the targets given."""
     targets = targets if targets is not None else [[8.0, 0.0]]
     beh = {"use": "relays", "targets": targets, **params}
     run = {"name": name, "seed": seed, "clock": clock, "ticks": ticks, "dt": dt}
-    radio = {"range": 2.0, "model": "distance", "delta": 0.15, "loss": loss}
+    radio = {"range": radio_range, "model": "distance", "delta": 0.15, "loss": loss}
     if clock == "realtime":
         radio.update(latency_s=dt / 4, latency_min_s=dt / 8)
     world: dict = {"dims": dims}
@@ -41,7 +43,10 @@ def relays_scenario(n: int = 10, targets: list | None = None, *, ticks: int = 60
         world["obstacles"] = obstacles
     if bounds:
         world["bounds"] = bounds
-    robots = groups or [{"positions": positions or cluster(n), "speed": PAPER["vmax"], "body_radius": 0.125,
+    if grid_map:
+        world["map"] = grid_map
+    robots = groups or [{"positions": positions or cluster(n), "speed": params.get("vmax", PAPER["vmax"]),
+                         "body_radius": 0.125,
                          "knows_map": True, "behaviors": [beh]}]
     sc = {"run": run, "radio": radio, "world": world, "robots": robots,
           "checks": checks if checks is not None else default_checks()}
@@ -76,6 +81,48 @@ def wall_scenario(ground: int = 7, flying: int = 6, *, ticks: int = 650, seed: i
                            obstacles=[{"box": [[4.0, -5.0], [4.6, 5.0]], "z": [0.0, 0.5]}])
 
 
+def maze_cells(cols: int, rows: int, corridor: int = 2, wall: int = 1, cell: float = 1.0):
+    """Centre of maze cell (c, r) (r = 0 the top row, as ``swarmactors.maps.maze`` draws it), in world units."""
+    step, height = corridor + wall, rows * (corridor + wall) + wall
+
+    def centre(c: int, r: int) -> list[float]:
+        return [(wall + c * step + corridor / 2) * cell, (height - wall - r * step - corridor / 2) * cell]
+
+    return centre
+
+
+def maze_scenario(n: int = 16, cols: int = 3, rows: int = 3, *, maze_seed: int = 0, corridor: int = 2,
+                  wall: int = 1, cell: float = 1.0, ticks: int = 700, spacing: float = 0.5, **kw) -> dict:
+    """A generated perfect maze (world ``map = {maze = ...}``), the root and the target in opposite corners.
+
+    The root stands in the top-left cell, the target in the bottom-right one, the other robots on a grid
+    around the root inside the corridors. Every robot knows the map (``knows_map``); the planning area is
+    the map's extent.
+    """
+    from swarmactors.maps import maze
+
+    plan = maze(cols, rows, seed=maze_seed, corridor=corridor, wall=wall)
+    h = len(plan)
+    centre = maze_cells(cols, rows, corridor, wall, cell)
+    root, target = centre(0, 0), centre(cols - 1, rows - 1)
+
+    def free(x: float, y: float, r: float = 0.3) -> bool:
+        """The square of half-side r around (x, y) lies in the corridors."""
+        corners = [((x + dx) / cell, (y + dy) / cell) for dx in (-r, r) for dy in (-r, r)]
+        return all(0 <= u < len(plan[0]) and 0 <= v < h and plan[h - 1 - int(v)][int(u)] == "." for u, v in corners)
+
+    k = int(n ** 0.5) + 4
+    spots = sorted(((root[0] + i * spacing, root[1] + j * spacing) for i in range(-k, k + 1) for j in range(-k, k + 1)
+                    if (i, j) != (0, 0)), key=lambda p: (round(math.dist(p, root), 6), p))
+    spots = [p for p in spots if free(*p)][: n - 1]
+    if len(spots) < n - 1:
+        raise ValueError(f"maze_scenario: room for {len(spots) + 1} robots around the root, not {n}")
+    positions = [root] + [[round(x, 4), round(y, 4)] for x, y in spots]
+    grid_map = {"maze": {"cols": cols, "rows": rows, "seed": maze_seed, "corridor": corridor, "wall": wall},
+                "cell": cell}
+    return relays_scenario(n, [target], ticks=ticks, positions=positions, grid_map=grid_map, **kw)
+
+
 C_SHAPE = [{"c_shape": {"center": [4.5, 0.0], "size": 3.0, "thickness": 0.4, "opening": "-x"}}]
 
 
@@ -87,7 +134,11 @@ def _case(name: str, sc: dict, checks: list[dict] | None = None) -> Case:
 
 
 def suite(mode: str) -> list[Case]:
-    """Open field, three consecutive failures, realtime; the full suite adds the C-shape, loss, WP."""
+    """Open field, three consecutive failures, realtime; the full suite adds more.
+
+    The full suite adds the C-shape, loss, WP, two targets, ground + flying, a generated maze and two
+    redundant chains to one target.
+    """
     cases = [
         _case("open-10", relays_scenario(10, [[8.0, 0.0]], ticks=260)),
         _case("open-12-kill-3", relays_scenario(12, [[8.0, 0.0]], ticks=560, kills=[(250, [3, 6, 2])]),
@@ -103,6 +154,8 @@ def suite(mode: str) -> list[Case]:
             _case("open-10-wp", relays_scenario(10, [[8.0, 0.0]], ticks=260, wp=True)),
             _case("open-12-two-targets", relays_scenario(12, [[5.0, 3.0], [5.0, -3.0]], ticks=600)),
             _case("wall-ground-and-flying-13", wall_scenario(ticks=500)),
+            _case("maze-3x3-16", maze_scenario(16, 3, 3, maze_seed=0, ticks=450)),
+            _case("open-18-two-chains", relays_scenario(18, [[8.0, 0.0]], ticks=400, chains_per_target=2)),
         ]
     return cases
 

@@ -7,9 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from protocols.relays import motion, planner
+from protocols.relays import motion, oracle, planner
 from protocols.relays.behavior import Relays, valid_plan
 from protocols.relays.zones import BREAKAWAY, CRITICAL, OUT, SAFE, link_quality, robots_needed, zone
+from swarmactors import Result
 
 DS, DC, DB = 1.4, 1.6, 1.8
 
@@ -113,6 +114,8 @@ def test_a_malformed_plan_is_refused_with_its_reason(value, why):
     ({"targets": [[1, 0]], "area": [[5, 0], [0, 5]]}, "area"),
     ({"targets": [[1, 0]], "k": 0}, "k = 0"),
     ({"targets": [[1, 0]], "wp": "yes"}, "wp"),
+    ({"targets": [[1, 0]], "chains_per_target": 0}, "chains_per_target = 0"),
+    ({"targets": [[1, 0]], "spacing": -0.3}, "spacing"),
 ])
 def test_bad_parameters_are_refused(params, fragment):
     assert fragment in Relays.validate(params)
@@ -124,3 +127,67 @@ def test_ground_reach_ends_where_the_path_meets_a_ground_obstacle():
     assert planner.ground_reach([[0.0, 0.0], [8.0, 0.0]], wall, 0.4) == pytest.approx(3.6 - 0.4, abs=0.06)
     assert planner.ground_reach([[0.0, 0.0], [3.0, 0.0]], wall, 0.4) == pytest.approx(3.0)
     assert Relays.validate({"targets": [[1, 0]], "kind": "boat"}).startswith("kind")
+
+
+def test_redundant_chains_run_side_by_side_parallel_to_pi_and_clear_of_walls():
+    """Sec. III-C: C_n chains per target; copy j of target t is chain t C_n + j, (j - (C_n - 1)/2) * 0.3 m aside."""
+    assert [Relays([[1, 0]], chains_per_target=3).side(c) for c in range(6)] == pytest.approx(
+        [-0.3, 0.0, 0.3, -0.3, 0.0, 0.3])
+    assert Relays([[1, 0]]).side(4) == 0.0  # C_n = 1: every chain on pi itself
+    assert [Relays([[1, 0]], chains_per_target=2).side(c) for c in range(2)] == pytest.approx([-0.15, 0.15])
+    pts = [[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]]
+    left = planner.offset(pts, 0.3)
+    assert left == [[0.0, 0.3], [3.7, 0.3], [3.7, 3.7], [0.0, 3.7]]  # inside the turns: shorter
+    assert planner.offset(pts, -0.3) == [[0.0, -0.3], [4.3, -0.3], [4.3, 4.3], [0.0, 4.3]]
+    assert planner.offset(pts, 0.0) == pts and planner.offset([[1.0, 1.0], [1.0, 1.0], [2.0, 1.0]], 0.1) == [
+        [1.0, 1.1], [2.0, 1.1]]
+    # planned with 0.3 m more clearance, the shifted path stays as clear of the wall as a plain plan (~0.3 m
+    # here, the grid's quantisation included): two body radii at least
+    wall = _box(2.0, -3.0, 2.4, 3.0)
+    grid = planner.Grid([[-1.0, -5.0], [6.0, 5.0]], 0.25, wall, clearance=0.4 + 0.3)
+    status, path = planner.plan(grid, [0.0, 0.0], [5.0, 0.0], 100000)
+    assert status == "ok"
+
+    def gap(x, y):
+        return math.hypot(max(2.0 - x, 0, x - 2.4), max(-3.0 - y, 0, y - 3.0))
+
+    for o in (-0.3, 0.3):
+        shifted = planner.offset(path, o)
+        assert min(gap(a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]))
+                   for a, b in zip(shifted, shifted[1:], strict=False) for t in np.linspace(0, 1, 100)) >= 0.25
+
+
+def _chains_result(parents: dict[int, int]) -> Result:
+    """A one-tick trace: root 0, workers 1 (chain 0) and 2 (chain 1) of one target (C_n = 2), networkers 3, 4."""
+    pos = {0: (0, 0), 1: (2.0, 0.2), 2: (2.0, -0.2), 3: (1.0, 0.2), 4: (1.0, -0.2)}
+    status = {0: {"role": "root"}, 1: {"role": "worker", "chain": 0}, 2: {"role": "worker", "chain": 1},
+              3: {"role": "networker", "chain": 0}, 4: {"role": "networker", "chain": 1}}
+    for r, p in parents.items():
+        status[r]["parent"] = p
+    spec = {"use": "relays", "as": "relays", "targets": [[2.0, 0.0]], "chains_per_target": 2}
+    result = Result({"robots": {str(i): {"range": 2.0} for i in pos},
+                     "scenario": {"run": {"dt": 1.0}, "robots": [{"behaviors": [spec]}]}})
+    result.__dict__["trace"] = [{"t": 0, "pos": [[i, *p] for i, p in pos.items()],
+                                 "status": {str(i): s for i, s in status.items()}}]
+    return result
+
+
+def test_connected_requires_the_chains_of_one_target_to_share_only_the_root():
+    (ok,) = oracle.connected(_chains_result({1: 3, 3: 0, 2: 4, 4: 0}))
+    assert ok.passed
+    (shared,) = oracle.connected(_chains_result({1: 3, 3: 0, 2: 3, 4: 0}))  # both workers hang on robot 3
+    assert not shared.passed and "sharing a robot" in shared.detail
+
+
+def test_a_parent_that_announces_itself_free_is_lost_and_join_time_defaults_to_link_fail():
+    """R5/R6: a recruit released (free) just as its child took it must not stay that child's parent."""
+    from types import SimpleNamespace
+
+    r = Relays([[8.0, 0.0]], root=0)
+    r.role, r.chain, r.parent, r.child = "networker", 0, 7, 9
+    r._on_chain(SimpleNamespace(tick=5, id=3), 7, {"r": "free", "c": None, "p": None, "ch": None, "d": None})
+    assert r.parent is None and r.parent_lost and r.chain == 0  # the chain id is not taken from a free robot
+    r.parent = 0
+    r._on_chain(SimpleNamespace(tick=6, id=3), 0, {"r": "root", "c": None, "p": None, "ch": None, "d": 0})
+    assert r.parent == 0  # the root is never a lost parent
+    assert r.times["join"] == r.times["fail"] == 5.0 and Relays([[1, 0]], join_time=30.0).times["join"] == 30.0
