@@ -81,6 +81,17 @@ def wall_scenario(ground: int = 7, flying: int = 6, *, ticks: int = 650, seed: i
                            obstacles=[{"box": [[4.0, -5.0], [4.6, 5.0]], "z": [0.0, 0.5]}])
 
 
+def window_wall(x=(4.0, 4.5), y_span=(-5.0, 5.0), window_y=(-1.0, 1.0), window_z=(0.8, 1.8), top=2.5) -> list:
+    """A wall across the arena (x in ``x``, y in ``y_span``, from the ground to ``top``) with a window.
+
+    The window is the hole y in ``window_y``, z in ``window_z``; the wall is four boxes (prisms with a z-extent)
+    round it: below, above, and on either side.
+    """
+    (xa, xb), (ya, yb), (wa, wb), (za, zb) = x, y_span, window_y, window_z
+    return [{"box": [[xa, wa], [xb, wb]], "z": [0.0, za]}, {"box": [[xa, wa], [xb, wb]], "z": [zb, top]},
+            {"box": [[xa, ya], [xb, wa]], "z": [0.0, top]}, {"box": [[xa, wb], [xb, yb]], "z": [0.0, top]}]
+
+
 def maze_cells(cols: int, rows: int, corridor: int = 2, wall: int = 1, cell: float = 1.0):
     """Centre of maze cell (c, r) (r = 0 the top row, as ``swarmactors.maps.maze`` draws it), in world units."""
     step, height = corridor + wall, rows * (corridor + wall) + wall
