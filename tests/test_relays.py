@@ -196,15 +196,18 @@ def test_mutants_are_caught(run, mutant, check):
 def test_a_wall_with_a_window_a_flying_worker_flies_through_it_in_3d_and_reaches_the_target(run):
     """The 3-D planner (``air``): a wall from the ground to the ceiling with a window 0.8-1.8 m high.
 
-    The only way is the window: pi climbs to it, passes it, and descends to the target on the ground; the
-    flying robots follow pi in 3-D, every robot inside the wall's slab is inside the window, and every link of
-    the chain stays within d_b (3-D distances).
+    The only way is the window: pi climbs to it, passes it, and descends to the target on the ground. The
+    first worker (a ground robot) hands over to a flying one (Fig. 4); the flying robots follow pi in 3-D, the
+    ground ones pi_g up to g, every body inside the wall's slab is inside the window, and every link of the
+    chain stays within d_b (3-D distances).
     """
-    result = run(window_scenario(ticks=300))
+    result = run(window_scenario(8, 6, ticks=450))
     assert all(c["passed"] for c in result.checks), result.checks
     links = [c for c in result.checks if c["name"] == "relays.links_within_db"][0]
     assert links["value"] <= 1.8
     reps = result.reports("relays")
+    handed = [r for r, rep in reps.items() if rep["plan_status"] == "handed to a flying robot"]
+    assert len(handed) == 1 and reps[handed[0]]["kind"] == "ground"
     chain = chain_of(result)
     assert reps[chain[0]]["kind"] == "flying" and reps[chain[0]]["reached_at"] is not None
     assert len(chain) - 1 >= 6
@@ -218,4 +221,5 @@ def test_a_wall_with_a_window_a_flying_worker_flies_through_it_in_3d_and_reaches
                 crossed.add(i)
     assert chain[0] in crossed
     final = {row[0]: row[1:] for row in result.trace[-1]["pos"]}
-    assert final[chain[0]][0] > 7.5 and final[0][2] == 0.0  # the worker beyond the wall; the root on the ground
+    assert final[chain[0]][0] > 7.5  # the worker beyond the wall
+    assert all(final[r][0] < 4.0 and final[r][2] == 0.0 for r in reps if reps[r]["kind"] == "ground")

@@ -776,13 +776,16 @@ class Relays(Behavior):
 
         z = float(ctx.position[2]) if len(ctx.position) == 3 else 0.0
         ground = self.kind == "ground"
-        if len(x) == 3:  # 3-D (air): the ring round the end point, and r above and below it
-            ring = [np.append(q, 0.0) for q in ring] + [np.array([0.0, 0.0, r]), np.array([0.0, 0.0, -r])]
+        if len(x) == 3:  # 3-D (air): the body is a cylinder of radius and half-height r round the end point
+            ring = [np.append(q, dz) for dz in (-r, 0.0, r) for q in [np.zeros(2), *ring]]
 
-        def clear(v):
-            end = x + v * ctx.dt
-            return not any(m.inside([float(p[0]), float(p[1]), float(p[2]) if len(p) == 3 else z], ground=ground)
-                           for p in [end] + [end + q for q in ring])
+            def clear(v):
+                return not m.inside_all(x + v * ctx.dt + np.array(ring), ground=ground).any()
+        else:
+            def clear(v):
+                end = x + v * ctx.dt
+                return not any(m.inside([float(p[0]), float(p[1]), z], ground=ground)
+                               for p in [end] + [end + q for q in ring])
 
         if clear(u):
             return u

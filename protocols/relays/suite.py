@@ -92,22 +92,22 @@ def window_wall(x=(4.0, 4.5), y_span=(-5.0, 5.0), window_y=(-1.0, 1.0), window_z
             {"box": [[xa, ya], [xb, wa]], "z": [0.0, top]}, {"box": [[xa, wb], [xb, yb]], "z": [0.0, top]}]
 
 
-def window_scenario(flying: int = 9, *, ticks: int = 450, seed: int = 1, **kw) -> dict:
+def window_scenario(flying: int = 9, ground: int = 1, *, ticks: int = 450, seed: int = 1, **kw) -> dict:
     """Build a 3-D arena cut by a wall from the ground to the ceiling (2.5 m) with a window, the target beyond it.
 
     The wall (x in [4, 4.5]) has a window y in [-1, 1], z in [0.8, 1.8]; the target is at (8, 0) on the ground.
-    The root is a ground robot; the ``flying`` flying robots start on the ground around it and may fly between
-    0 and 2.5 m. The 3-D planner (``air`` = [0, 2.5]) finds pi through the window: up from the root, through
-    the window at about 1.1 m, down to the target.
+    The root and ``ground - 1`` ground robots stand nearest the target, the ``flying`` flying robots (on the
+    ground, free to fly between 0 and 2.5 m) behind the root. The 3-D planner (``air`` = [0, 2.5]) finds pi
+    through the window: up from the root, through the window at about 1.1 m, down to the target.
     """
-    pts = cluster(flying + 1)
+    pts = cluster(ground) + [[-0.6 - x, y] for x, y in cluster(flying + 1)[1:]]
     area = [[-3.0, -5.0], [11.0, 5.0]]
     beh = {"use": "relays", "targets": [[8.0, 0.0]], "area": area, "air": [0.0, 2.5], **kw}
     common = {"speed": PAPER["vmax"], "body_radius": 0.125, "knows_map": True}
-    groups = [{"positions": [pts[0] + [0.0]], **common, "behaviors": [beh]},
-              {"positions": [p + [0.0] for p in pts[1:]], "kind": "flying", "altitude": [0.0, 2.5], **common,
+    groups = [{"positions": [p + [0.0] for p in pts[:ground]], **common, "behaviors": [beh]},
+              {"positions": [p + [0.0] for p in pts[ground:]], "kind": "flying", "altitude": [0.0, 2.5], **common,
                "behaviors": [{**beh, "kind": "flying"}]}]
-    return relays_scenario(flying + 1, ticks=ticks, seed=seed, dims=3, groups=groups,
+    return relays_scenario(ground + flying, ticks=ticks, seed=seed, dims=3, groups=groups,
                            bounds=[[-3.0, -5.0, 0.0], [11.0, 5.0, 2.5]], obstacles=window_wall(top=2.5))
 
 
