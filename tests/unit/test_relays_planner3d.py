@@ -8,6 +8,7 @@ import time
 import numpy as np
 
 from protocols.relays import planner
+from protocols.relays.behavior import valid_plan
 from protocols.relays.suite import window_wall
 from swarmactors.knownmap import KnownMap
 
@@ -77,3 +78,11 @@ def test_no_corner_cutting_between_voxels_touching_along_an_edge():
                                                                           for q in p]))
     assert (1, 1, 0) not in [n for n, _ in grid.neighbours((0, 0, 0))]
     assert planner.plan(grid, [0.5, 0.5, 0.5], [1.5, 1.5, 0.5], 100)[0] == "unreachable"
+
+
+def test_a_3d_plan_keeps_the_wire_format():
+    """The tuple stays well formed: pi a 3-D polyline with altitude changes, pi_g its ground projection."""
+    m = _map(window_wall(x=WIN["x"], y_span=(-3.0, 3.0), window_y=WIN["y"], window_z=WIN["z"], top=2.5))
+    _, pts = planner.plan(planner.Grid3(BOX, 0.25, _blocked(m), clearance=0.4), [0, 0, 0], [6, 0, 0], 20000)
+    pi = [[round(v, 4) for v in p] for p in pts]
+    assert valid_plan({"pe": True, "pi": pi, "pig": [p[:2] for p in pi], "n": 5, "g": 2.5}) is None
