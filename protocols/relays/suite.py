@@ -166,8 +166,8 @@ def _case(name: str, sc: dict, checks: list[dict] | None = None) -> Case:
 def suite(mode: str) -> list[Case]:
     """Open field, three consecutive failures, realtime; the full suite adds more.
 
-    The full suite adds the C-shape, loss, WP, two targets, ground + flying, a generated maze and two
-    redundant chains to one target.
+    The full suite adds the C-shape, loss, WP, two targets, ground + flying (over a low wall, and through a
+    window with the 3-D planner), a generated maze and two redundant chains to one target.
     """
     cases = [
         _case("open-10", relays_scenario(10, [[8.0, 0.0]], ticks=260)),
@@ -184,6 +184,7 @@ def suite(mode: str) -> list[Case]:
             _case("open-10-wp", relays_scenario(10, [[8.0, 0.0]], ticks=260, wp=True)),
             _case("open-12-two-targets", relays_scenario(12, [[5.0, 3.0], [5.0, -3.0]], ticks=600)),
             _case("wall-ground-and-flying-13", wall_scenario(ticks=500)),
+            _case("window-ground-and-flying-14", window_scenario(8, 6, ticks=450)),
             _case("maze-3x3-16", maze_scenario(16, 3, 3, maze_seed=0, ticks=450)),
             _case("open-18-two-chains", relays_scenario(18, [[8.0, 0.0]], ticks=400, chains_per_target=2)),
         ]

@@ -86,3 +86,10 @@ def test_a_3d_plan_keeps_the_wire_format():
     _, pts = planner.plan(planner.Grid3(BOX, 0.25, _blocked(m), clearance=0.4), [0, 0, 0], [6, 0, 0], 20000)
     pi = [[round(v, 4) for v in p] for p in pts]
     assert valid_plan({"pe": True, "pi": pi, "pig": [p[:2] for p in pi], "n": 5, "g": 2.5}) is None
+
+
+def test_known_map_inside_all_agrees_with_inside():
+    m = _map(window_wall(top=2.5))
+    pts = np.random.default_rng(0).uniform([3.5, -2.0, 0.0], [5.0, 2.0, 2.5], size=(300, 3))
+    assert m.inside_all(pts, ground=False).tolist() == [m.inside(list(p), ground=False) for p in pts]
+    assert 0 < m.inside_all(pts, ground=False).sum() < len(pts) and m.inside_all(np.zeros((0, 3))).shape == (0,)
