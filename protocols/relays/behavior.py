@@ -660,9 +660,13 @@ class Relays(Behavior):
         total = planner.length([p[:2] for p in plan["pig"]])
         if plan["g"] >= total - 1e-3:
             return False
+        airborne = total - plan["g"]
+        if self.d3:  # pi's own 3-D length after the point above g
+            pi = [(list(p) + [0.0])[:3] for p in plan["pi"]]
+            airborne = planner.length(pi) - planner.arc_3d(pi, plan["g"])
         h = self.heard.get(base)
         have = h[1].get("n") if h is not None and is_int(h[1].get("n")) else 0
-        return have < math.ceil((total - plan["g"]) / self.ds) + 1
+        return have < math.ceil(airborne / self.ds) + 1
 
     def _run_slot(self, ctx: Context, chain: int) -> None:
         """Close a slot: call the winner; forget the slot once it joined, or when the call goes unanswered."""

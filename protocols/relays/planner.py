@@ -255,6 +255,16 @@ def length(path: list[list[float]]) -> float:
     return sum(math.dist(a, b) for a, b in zip(path, path[1:], strict=False))
 
 
+def arc_3d(path: list[list[float]], s: float) -> float:
+    """The arc length along the 3-D polyline ``path`` of the point at arc length ``s`` along its projection."""
+    done, out = 0.0, 0.0
+    for a, b in zip(path, path[1:], strict=False):
+        flat, full = math.dist(a[:2], b[:2]), math.dist(a, b)
+        if done + flat >= s and flat > 0:
+            return out + (s - done) / flat * full
+        done, out = done + flat, out + full
+    return out
+
 def ground_reach(path: list[list[float]], blocked_at, clearance: float, step: float = 0.05) -> float:
     """Return the arc length a ground robot can follow along ``path``.
 

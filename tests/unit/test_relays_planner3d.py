@@ -93,3 +93,8 @@ def test_known_map_inside_all_agrees_with_inside():
     pts = np.random.default_rng(0).uniform([3.5, -2.0, 0.0], [5.0, 2.0, 2.5], size=(300, 3))
     assert m.inside_all(pts, ground=False).tolist() == [m.inside(list(p), ground=False) for p in pts]
     assert 0 < m.inside_all(pts, ground=False).sum() < len(pts) and m.inside_all(np.zeros((0, 3))).shape == (0,)
+
+
+def test_arc_3d_lifts_a_ground_arc_length_onto_pi():
+    pi = [[0.0, 0.0, 0.0], [3.0, 0.0, 4.0], [6.0, 0.0, 4.0]]  # a climb of slope 4/3, then level
+    assert planner.arc_3d(pi, 1.5) == 2.5 and planner.arc_3d(pi, 4.0) == 6.0 and planner.arc_3d(pi, 99.0) == 8.0
