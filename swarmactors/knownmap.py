@@ -46,6 +46,10 @@ class KnownMap:
         """Whether ``point`` lies inside an obstacle (water counts for ``ground``)."""
         return bool(self._space.inside(_pts([point]), ground)[0])
 
+    def inside_all(self, points, ground: bool = True) -> np.ndarray:
+        """``inside`` for many points at once (an n x 2 or n x 3 array -> n booleans)."""
+        return self._space.inside(_pts(points), ground) if len(points) else np.zeros(0, dtype=bool)
+
     def clear(self, a, b, ground: bool = True) -> bool:
         """Whether the straight segment from ``a`` to ``b`` crosses no obstacle."""
         return not bool(self._space.blocked(_pts([a]), _pts([b]), ground)[0])

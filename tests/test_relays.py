@@ -7,7 +7,14 @@ import math
 import pytest
 
 from protocols.relays.behavior import Relays
-from protocols.relays.suite import C_SHAPE, default_checks, maze_scenario, relays_scenario, wall_scenario
+from protocols.relays.suite import (
+    C_SHAPE,
+    default_checks,
+    maze_scenario,
+    relays_scenario,
+    wall_scenario,
+    window_scenario,
+)
 
 pytestmark = pytest.mark.slow  # every test runs scenarios over Zenoh
 
@@ -184,3 +191,35 @@ def test_mutants_are_caught(run, mutant, check):
     sc = relays_scenario(12, [[8.0, 0.0]], ticks=450 if kills else 250, kills=kills, checks=default_checks(True))
     sc["robots"][0]["behaviors"][0].update({"use": f"test_relays:{mutant}", "as": "relays"})
     assert passed(run(sc))[check] is False
+
+
+def test_a_wall_with_a_window_a_flying_worker_flies_through_it_in_3d_and_reaches_the_target(run):
+    """The 3-D planner (``air``): a wall from the ground to the ceiling with a window 0.8-1.8 m high.
+
+    The only way is the window: pi climbs to it, passes it, and descends to the target on the ground. The
+    first worker (a ground robot) hands over to a flying one (Fig. 4); the flying robots follow pi in 3-D, the
+    ground ones pi_g up to g, every body inside the wall's slab is inside the window, and every link of the
+    chain stays within d_b (3-D distances).
+    """
+    result = run(window_scenario(8, 6, ticks=450))
+    assert all(c["passed"] for c in result.checks), result.checks
+    links = [c for c in result.checks if c["name"] == "relays.links_within_db"][0]
+    assert links["value"] <= 1.8
+    reps = result.reports("relays")
+    handed = [r for r, rep in reps.items() if rep["plan_status"] == "handed to a flying robot"]
+    assert len(handed) == 1 and reps[handed[0]]["kind"] == "ground"
+    chain = chain_of(result)
+    assert reps[chain[0]]["kind"] == "flying" and reps[chain[0]]["reached_at"] is not None
+    assert len(chain) - 1 >= 6
+    path = reps[chain[0]]["path"]
+    assert path[0][2] == 0.0 and path[-1][2] == 0.0 and max(p[2] for p in path) > 0.8  # up and down again
+    crossed = set()
+    for row in result.trace:
+        for i, x, y, z in row["pos"]:
+            if 4.0 - 0.125 <= x <= 4.5 + 0.125:  # a body in the wall's slab is in the window
+                assert -1.0 < y < 1.0 and 0.8 < z < 1.8, (row["tick"], i, x, y, z)
+                crossed.add(i)
+    assert chain[0] in crossed
+    final = {row[0]: row[1:] for row in result.trace[-1]["pos"]}
+    assert final[chain[0]][0] > 7.5  # the worker beyond the wall
+    assert all(final[r][0] < 4.0 and final[r][2] == 0.0 for r in reps if reps[r]["kind"] == "ground")

@@ -95,7 +95,7 @@ class Relays(Behavior):
                  link_fail: float = 5.0, k: int = 8, wp: bool = False, resolution: float = 0.25,
                  budget: int = 20000, clearance: float = 0.4, area: list | None = None, lookahead: float = 0.5,
                  kind: str = "ground", altitude: float = 0.7, chains_per_target: int = 1, spacing: float = 0.3,
-                 join_time: float | None = None):
+                 join_time: float | None = None, air: list | None = None):
         self.targets = [[float(c) for c in t] for t in targets]
         self.cn, self.spacing = chains_per_target, spacing  # C_n chains per target, side by side (Sec. III-C)
         self.root, self.at = root, at
@@ -105,6 +105,8 @@ class Relays(Behavior):
         self.k, self.wp, self.res, self.budget, self.clearance = k, wp, resolution, budget, clearance
         self.area, self.lookahead = area, lookahead
         self.kind, self.altitude = kind, altitude  # kind repeats the group's: the context does not tell it
+        self.air = air  # [z_lo, z_hi]: plan flights in 3-D within these altitudes (None: at ``altitude`` only)
+        self.d3 = False  # air and a 3-D world: positions, links and flight in 3-D (set at start)
         self.fly: dict[int, Election] = {}
         self.cnt = 0  # robots from me to the worker (me included), from the child's REL_CHAIN
         self.node = Stigmergy()
@@ -169,6 +171,10 @@ class Relays(Behavior):
             return f"area = {a!r} must be [[x0, y0], [x1, y1]] with x0 < x1 and y0 < y1"
         if not isinstance(params.get("wp", False), bool):
             return "wp must be true or false"
+        air = params.get("air")
+        if air is not None and not (isinstance(air, list) and len(air) == 2 and all(is_num(z) for z in air)
+                                    and 0 <= air[0] < air[1]):
+            return f"air = {air!r} must be [z_lo, z_hi] with 0 <= z_lo < z_hi (the altitudes a flight may use)"
         if params.get("kind", "ground") not in ("ground", "flying"):
             return f"kind = {params.get('kind')!r} must be ground or flying (the robot group's kind)"
         return None
@@ -182,7 +188,7 @@ class Relays(Behavior):
         return max(1, round(self.times[what] / ctx.dt))
 
     def _pos(self, ctx: Context) -> np.ndarray:
-        return np.array(ctx.position[:2], dtype=float)
+        return np.array(ctx.position[:3 if self.d3 else 2], dtype=float)
 
     def _dist(self, ctx: Context, j: int | None) -> float:
         if j is None:
@@ -208,6 +214,7 @@ class Relays(Behavior):
         self.node.attach(ctx)
         self.rel = self.node.create("relay")
         self.vote = self.node.create("elect", "lower_value")
+        self.d3 = self.air is not None and len(ctx.position) == 3
         if ctx.id == self.root:
             self.role, self.depth = ROOT, 0
         self._publish(ctx)
@@ -307,7 +314,7 @@ class Relays(Behavior):
 
     # ------------------------------------------------------------------ tick
     def on_tick(self, ctx: Context, sensed) -> None:
-        self.sensed = {s.id: np.array(s.pos[:2], dtype=float) for s in sensed}
+        self.sensed = {s.id: np.array(s.pos[:3 if self.d3 else 2], dtype=float) for s in sensed}
         self._root_position(ctx)
         if ctx.id == self.root and ctx.tick == self.at:
             for t, pos in enumerate(self.targets):
@@ -337,7 +344,7 @@ class Relays(Behavior):
         elif self.root in self.sensed:
             self.root_pos = self.sensed[self.root]
         elif self.root_pos is None and isinstance(self.rel.peek("root"), list):
-            self.root_pos = np.array(self.rel.peek("root")[:2], dtype=float)
+            self.root_pos = np.array((self.rel.peek("root") + [0.0])[:3 if self.d3 else 2], dtype=float)
 
     def _elect(self, ctx: Context) -> None:
         """R1: the elections of all targets run at once, ``bid_time`` long.
@@ -392,7 +399,7 @@ class Relays(Behavior):
                 def bid(c: Context, pos=pos) -> float | None:
                     if c.id == self.root or self.role != FREE or self.kind != "flying":
                         return None
-                    return float(math.dist(self._pos(c), pos[:2]))
+                    return float(math.dist(self._pos(c)[:2], pos[:2]))
 
                 self.fly[t] = Election(self.vote, f"worker/{t}/fly", bid, plan["fly_at"], bid_ticks)
                 if self.role == WORKER and self.chain == t:  # the ground worker steps down
@@ -443,7 +450,9 @@ class Relays(Behavior):
                 pos = self.target_pos[c]
 
                 def bid(cx: Context, pos=pos) -> float | None:
-                    return None if cx.id == self.root or self.role != FREE else float(math.dist(self._pos(cx), pos[:2]))
+                    if cx.id == self.root or self.role != FREE:
+                        return None
+                    return float(math.dist(self._pos(cx)[:2], pos[:2]))
 
                 self.again[c] = (entry["k"], Election(self.vote, f"worker/{c}/again{entry['k']}", bid, entry["at"],
                                                       self._ticks(ctx, "bid")))
@@ -466,7 +475,7 @@ class Relays(Behavior):
         def bid(c: Context) -> float | None:
             if c.id == self.root or self.role != FREE or c.id in self.settled.values():
                 return None
-            return float(math.dist(self._pos(c), pos[:2]))
+            return float(math.dist(self._pos(c)[:2], pos[:2]))
 
         return bid
 
@@ -508,8 +517,10 @@ class Relays(Behavior):
         if why is not None:
             value = {"pe": False, "pi": [], "pig": [], "n": 0, "why": why}
         else:
-            g = planner.ground_reach(pts, inside, self.clearance) if air is not None else planner.length(pts)
-            pi = [[round(p[0], 4), round(p[1], 4), 0.0 if air is None else air] for p in pts]
+            pig = [p[:2] for p in pts]
+            g = planner.ground_reach(pig, inside, self.clearance) if air is not None else planner.length(pig)
+            pi = [[round(p[0], 4), round(p[1], 4), round(p[2], 4) if len(p) == 3 else 0.0 if air is None else air]
+                  for p in pts]
             value = {"pe": True, "pi": pi, "pig": [p[:2] for p in pi], "g": round(g, 4),
                      "n": robots_needed(planner.length(pts), self.ds), "why": None}
             if air is not None and self.kind == "ground":  # Fig. 4: a flying robot takes over
@@ -520,10 +531,26 @@ class Relays(Behavior):
         self._load_plan(ctx)
 
     def _plan_grid(self, area, inside, m, start, target, extra: float):
-        """Flood fill + A* on the ground, else (3-D world) at the flying altitude; clearance + ``extra``."""
+        """Flood fill + A* on the ground, else (3-D world) in the air; clearance + ``extra``.
+
+        In the air: with ``air`` = [z_lo, z_hi], A* on voxels of side R between those altitudes (planner.Grid3,
+        the known map's prisms with their z-extent), so pi climbs and descends (through a window, over a
+        wall); without it, on the grid of cells at the one flying ``altitude``.
+        """
         grid = planner.Grid(area, self.res, inside, self.clearance + extra)
-        status, pts = planner.plan(grid, list(start), list(target[:2]), self.budget)
+        status, pts = planner.plan(grid, list(start[:2]), list(target[:2]), self.budget)
         air = None
+        if status == "unreachable" and m is not None and m.dims == 3 and self.air is not None:
+            lo, hi = float(self.air[0]), float(self.air[1])
+            box = [[area[0][0], area[0][1], lo], [area[1][0], area[1][1], hi]]
+            grid = planner.Grid3(box, self.res, lambda p: m.inside_all(p, ground=False), self.clearance + extra)
+
+            def at(p):  # the point at its own altitude (the ground when it has none), within [lo, hi)
+                z = float(p[2]) if len(p) == 3 else 0.0
+                return [float(p[0]), float(p[1]), min(max(z, lo), hi - 1e-6)]
+
+            status, pts = planner.plan(grid, at(start), at(target), self.budget)
+            return status, pts, "3d"
         if status == "unreachable" and m is not None and m.dims == 3:  # in R^3, over the obstacles (Sec. IV)
             h = self.altitude
             grid = planner.Grid(area, self.res, lambda x, y: m.inside([x, y, h], ground=False),
@@ -547,7 +574,12 @@ class Relays(Behavior):
             return
         if e.value.get("pe"):
             self.plan = e.value
-            self.path = motion.arc_points([p[:2] for p in e.value["pig"]])
+            if not self.d3:
+                self.path = motion.arc_points([p[:2] for p in e.value["pig"]])
+            elif self.kind == "flying":  # follows pi in 3-D
+                self.path = motion.arc_points([(list(p) + [0.0])[:3] for p in e.value["pi"]])
+            else:  # follows pi_g on the ground
+                self.path = motion.arc_points([[p[0], p[1], 0.0] for p in e.value["pig"]])
             self.s = None
         else:
             self.plan = e.value
@@ -628,9 +660,13 @@ class Relays(Behavior):
         total = planner.length([p[:2] for p in plan["pig"]])
         if plan["g"] >= total - 1e-3:
             return False
+        airborne = total - plan["g"]
+        if self.d3:  # pi's own 3-D length after the point above g
+            pi = [(list(p) + [0.0])[:3] for p in plan["pi"]]
+            airborne = planner.length(pi) - planner.arc_3d(pi, plan["g"])
         h = self.heard.get(base)
         have = h[1].get("n") if h is not None and is_int(h[1].get("n")) else 0
-        return have < math.ceil((total - plan["g"]) / self.ds) + 1
+        return have < math.ceil(airborne / self.ds) + 1
 
     def _run_slot(self, ctx: Context, chain: int) -> None:
         """Close a slot: call the winner; forget the slot once it joined, or when the call goes unanswered."""
@@ -658,7 +694,7 @@ class Relays(Behavior):
         if self.choice is None:
             best = None
             for key, s in sorted(self.slots.items()):
-                c = 1.0 / (1.0 + math.dist(self._pos(ctx), s["pos"]))
+                c = 1.0 / (1.0 + math.dist(self._pos(ctx)[:2], s["pos"]))
                 if self.kind == "flying" and not s["fly"]:
                     c *= 0.1  # a flying robot takes a ground slot only when no ground robot bids
                 if (c, -ctx.id) > (s["y"], -(s["z"] if s["z"] is not None else 10**9)) and (
@@ -678,7 +714,7 @@ class Relays(Behavior):
     def _move(self, ctx: Context) -> None:
         x = self._pos(ctx)
         others = list(self.sensed.values())
-        u, links = np.zeros(2), []
+        u, links = np.zeros(len(x)), []
         if self.role == FREE and self.root_pos is not None:
             v = self.root_pos - x
             d = float(np.linalg.norm(v))
@@ -709,12 +745,12 @@ class Relays(Behavior):
                 if self.reached_at is None:
                     self.reached_at = ctx.tick
                 self.done = True
-                u = np.zeros(2)
+                u = np.zeros(len(x))
             else:
                 ahead = self.lookahead
                 if self.kind == "ground" and self.plan.get("g", math.inf) < cum[-1] - 1e-3:
                     ahead = min(ahead, self.plan["g"] - self.s)  # a ground robot stops where pi leaves the ground
-                uf = motion.u_path(p, cum, self.s, x, True, self.vmax, ctx.dt, ahead) if ahead > 0 else np.zeros(2)
+                uf = motion.u_path(p, cum, self.s, x, True, self.vmax, ctx.dt, ahead) if ahead > 0 else np.zeros(len(x))
                 ub = motion.u_path(p, cum, self.s, x, False, self.vmax, ctx.dt, self.lookahead)
                 tc = self.sensed[self.child] - x if self.child in self.sensed else None
                 if tc is None and not self.acked:  # a recruit heading for a child it does not sense yet
@@ -727,7 +763,8 @@ class Relays(Behavior):
                      and not (j == self.child and pending)]
         u = motion.constrain(u, x, links, others, self.rcol, ctx.dt)
         u = self._clear_of_walls(ctx, x, u, lambda v: motion.constrain(v, x, links, others, self.rcol, ctx.dt))
-        ctx.move([float(u[0]), float(u[1])] + ([0.0] if len(ctx.position) == 3 else []))
+        ctx.move([float(v) for v in u] if len(u) == 3 else
+                 [float(u[0]), float(u[1])] + ([0.0] if len(ctx.position) == 3 else []))
 
     def _clear_of_walls(self, ctx: Context, x: np.ndarray, u: np.ndarray, fix) -> np.ndarray:
         """Keep the body (radius r_col/2) off the known obstacles.
@@ -743,19 +780,24 @@ class Relays(Behavior):
 
         z = float(ctx.position[2]) if len(ctx.position) == 3 else 0.0
         ground = self.kind == "ground"
+        if len(x) == 3:  # 3-D (air): the body is a cylinder of radius and half-height r round the end point
+            ring = [np.append(q, dz) for dz in (-r, 0.0, r) for q in [np.zeros(2), *ring]]
 
-        def clear(v):
-            end = x + v * ctx.dt
-            return not any(m.inside([float(p[0]), float(p[1]), z], ground=ground)
-                           for p in [end] + [end + q for q in ring])
+            def clear(v):
+                return not m.inside_all(x + v * ctx.dt + np.array(ring), ground=ground).any()
+        else:
+            def clear(v):
+                end = x + v * ctx.dt
+                return not any(m.inside([float(p[0]), float(p[1]), z], ground=ground)
+                               for p in [end] + [end + q for q in ring])
 
         if clear(u):
             return u
-        for v in (np.array([u[0], 0.0]), np.array([0.0, u[1]])):
+        for v in np.diag(u):  # its part along each axis
             v = fix(v)
             if clear(v):
                 return v
-        return np.zeros(2)
+        return np.zeros(len(u))
 
     def _broadcast(self, ctx: Context) -> None:
         if self.role == ROOT:

@@ -119,8 +119,8 @@ def constrain(u: np.ndarray, x: np.ndarray, links: list[tuple[np.ndarray, float]
             bounds.append((e, b))
             closing = float(u @ e)
             near = max(0.0, 1.0 - (d - rcol) / 0.4)  # turns right earlier the nearer j is
-            if closing > 0 and len(u) == 2:  # keep right: the blocked part turns to the robot's right
-                swerve += max(closing - b, closing * near) * np.array([e[1], -e[0]])
+            if closing > 0:  # keep right: the blocked part turns to the robot's right (in the horizontal plane)
+                swerve += max(closing - b, closing * near) * np.array([e[1], -e[0], 0.0][:len(u)])
     u = u + swerve
     for _ in range(3):
         for e, b in bounds:

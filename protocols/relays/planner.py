@@ -16,10 +16,13 @@ from collections import deque
 from collections.abc import Callable
 
 import numpy as np
+from scipy import ndimage
 
 
 class Grid:
     """Occupancy of the area [x0, x1] x [y0, y1] at resolution ``res`` (blocked cells in a set)."""
+
+    dims = 2
 
     def __init__(self, area: list[list[float]], res: float, blocked_at: Callable[[float, float], bool],
                  clearance: float = 0.0):
@@ -81,6 +84,96 @@ class Grid:
         return True
 
 
+class Grid3:
+    """Occupancy of the box [x0, x1] x [y0, y1] x [z0, z1] in cubic voxels of side ``res`` (3-D planning).
+
+    Same rules as ``Grid`` one dimension up: a voxel is blocked when its centre is inside an obstacle
+    (``blocked_all``: an n x 3 array of points -> n booleans, e.g. the known map's prisms with their z-extent)
+    or within ``clearance`` of a blocked centre (a ball). Moves are 26-connected (faces, edges and corners of
+    the cube, cost their length) with no corner cutting: a diagonal move needs every voxel of the unit cube it
+    crosses to be free, so a path never slips between two blocked voxels that touch along an edge.
+    """
+
+    dims = 3
+    MOVES = [(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1) if dx or dy or dz]
+
+    def __init__(self, box: list[list[float]], res: float, blocked_all: Callable[[np.ndarray], np.ndarray],
+                 clearance: float = 0.0):
+        lo, hi = np.asarray(box[0][:3], dtype=float), np.asarray(box[1][:3], dtype=float)
+        self.res = float(res)
+        self.x0, self.y0, self.z0 = (float(v) for v in lo)
+        self.shape = tuple(max(1, int(math.ceil((hi[k] - lo[k]) / res))) for k in range(3))
+        idx = np.indices(self.shape).reshape(3, -1).T
+        hard = np.asarray(blocked_all(lo + (idx + 0.5) * res), dtype=bool)
+        self.hard = {tuple(int(v) for v in c) for c in idx[hard]}
+        grow = int(math.ceil(clearance / res))
+        offs = [(a, b, c) for a in range(-grow, grow + 1) for b in range(-grow, grow + 1)
+                for c in range(-grow, grow + 1) if math.sqrt(a * a + b * b + c * c) * res <= clearance + 1e-9]
+        self.blocked = {(i + a, j + b, k + c) for i, j, k in self.hard for a, b, c in offs} | self.hard
+        self._free = np.zeros([n + 2 for n in self.shape], dtype=bool)  # padded by one blocked voxel
+        self._free[1:-1, 1:-1, 1:-1] = True
+        for c in self.blocked:
+            if all(-1 <= c[k] <= self.shape[k] for k in range(3)):
+                self._free[c[0] + 1, c[1] + 1, c[2] + 1] = False
+        self._parts = None
+
+    def centre(self, cell: tuple[int, int, int]) -> tuple[float, float, float]:
+        return (self.x0 + (cell[0] + 0.5) * self.res, self.y0 + (cell[1] + 0.5) * self.res,
+                self.z0 + (cell[2] + 0.5) * self.res)
+
+    def cell(self, x: float, y: float, z: float) -> tuple[int, int, int] | None:
+        c = tuple(int(math.floor((v - o) / self.res)) for v, o in zip((x, y, z), (self.x0, self.y0, self.z0),
+                                                                      strict=True))
+        return c if all(0 <= c[k] < self.shape[k] for k in range(3)) else None
+
+    def free(self, cell: tuple[int, int, int]) -> bool:
+        if not all(-1 <= cell[k] <= self.shape[k] for k in range(3)):
+            return False
+        return bool(self._free[cell[0] + 1, cell[1] + 1, cell[2] + 1])
+
+    def connected(self, a: tuple[int, int, int], b: tuple[int, int, int]) -> bool:
+        """Whether two free voxels are in one component (the PE flag).
+
+        With no corner cutting a diagonal move needs its whole cube free, so it can be replaced by face
+        moves: the components of the 26-connected moves are those of 6-connectivity (scipy's labelling).
+        """
+        if self._parts is None:
+            self._parts = ndimage.label(self._free)[0]
+        return bool(self._parts[a[0] + 1, a[1] + 1, a[2] + 1] == self._parts[b[0] + 1, b[1] + 1, b[2] + 1])
+
+    def neighbours(self, cell: tuple[int, int, int]):
+        c = cell
+        for d in self.MOVES:
+            n = (c[0] + d[0], c[1] + d[1], c[2] + d[2])
+            if not self.free(n):
+                continue
+            if sum(map(abs, d)) > 1 and not all(  # no corner cutting: the cube's other voxels are free too
+                    self.free((c[0] + a * d[0], c[1] + b * d[1], c[2] + e * d[2]))
+                    for a in (0, 1) for b in (0, 1) for e in (0, 1)):
+                continue
+            yield n, math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+
+    def nearest_free(self, cell: tuple[int, int, int], radius: int = 4) -> tuple[int, int, int] | None:
+        """The cell itself, or the nearest free voxel within ``radius`` voxels (ties: lowest index)."""
+        if self.free(cell):
+            return cell
+        rng = range(-radius, radius + 1)
+        near = [(a * a + b * b + c * c, (cell[0] + a, cell[1] + b, cell[2] + c))
+                for a in rng for b in rng for c in rng]
+        near = [q for q in near if self.free(q[1])]
+        return min(near)[1] if near else None
+
+    def line_free(self, a: tuple[int, int, int], b: tuple[int, int, int]) -> bool:
+        """Whether every voxel the segment between two voxel centres passes through (sampled at R/4) is free."""
+        pa, pb = np.array(self.centre(a)), np.array(self.centre(b))
+        steps = max(1, int(math.ceil(4 * float(np.linalg.norm(pb - pa)) / self.res)))
+        for i in range(steps + 1):
+            c = self.cell(*(pa + i / steps * (pb - pa)))
+            if c is None or c in self.blocked:
+                return False
+        return True
+
+
 def reachable(grid: Grid, start: tuple[int, int], goal: tuple[int, int]) -> bool:
     """Flood fill of the free cells from ``start``: is ``goal`` among them (the PE flag)."""
     seen, todo = {start}, deque([start])
@@ -97,11 +190,10 @@ def reachable(grid: Grid, start: tuple[int, int], goal: tuple[int, int]) -> bool
 
 def astar(grid: Grid, start: tuple[int, int], goal: tuple[int, int], budget: int) -> list[tuple[int, int]] | None:
     """A* over the free cells; None when the goal is not reached within ``budget`` expansions."""
-    gx, gy = grid.centre(goal)
+    goal_c = grid.centre(goal)
 
     def h(c):
-        x, y = grid.centre(c)
-        return math.hypot(gx - x, gy - y) / grid.res
+        return math.dist(goal_c, grid.centre(c)) / grid.res
 
     g = {start: 0.0}
     came: dict = {}
@@ -144,17 +236,17 @@ def shorten(grid: Grid, cells: list[tuple[int, int]]) -> list[tuple[int, int]]:
 
 def plan(grid: Grid, start: list[float], goal: list[float], budget: int) -> tuple[str, list[list[float]]]:
     """("ok", waypoints from start to goal), or ("unreachable" | "budget" | "outside", [])."""
-    s, t = grid.cell(*start[:2]), grid.cell(*goal[:2])
+    s, t = grid.cell(*start[:grid.dims]), grid.cell(*goal[:grid.dims])
     if s is None or t is None:
         return "outside", []
     s, t = grid.nearest_free(s), grid.nearest_free(t)
-    if s is None or t is None or not reachable(grid, s, t):
+    if s is None or t is None or not (grid.connected(s, t) if grid.dims == 3 else reachable(grid, s, t)):
         return "unreachable", []
     cells = astar(grid, s, t, budget)
     if cells is None:
         return "budget", []
     pts = [list(grid.centre(c)) for c in shorten(grid, cells)]
-    pts[0], pts[-1] = [float(v) for v in start[:2]], [float(v) for v in goal[:2]]
+    pts[0], pts[-1] = [float(v) for v in start[:grid.dims]], [float(v) for v in goal[:grid.dims]]
     return "ok", pts
 
 
@@ -162,6 +254,16 @@ def length(path: list[list[float]]) -> float:
     """The length of a polyline."""
     return sum(math.dist(a, b) for a, b in zip(path, path[1:], strict=False))
 
+
+def arc_3d(path: list[list[float]], s: float) -> float:
+    """The arc length along the 3-D polyline ``path`` of the point at arc length ``s`` along its projection."""
+    done, out = 0.0, 0.0
+    for a, b in zip(path, path[1:], strict=False):
+        flat, full = math.dist(a[:2], b[:2]), math.dist(a, b)
+        if done + flat >= s and flat > 0:
+            return out + (s - done) / flat * full
+        done, out = done + flat, out + full
+    return out
 
 def ground_reach(path: list[list[float]], blocked_at, clearance: float, step: float = 0.05) -> float:
     """Return the arc length a ground robot can follow along ``path``.

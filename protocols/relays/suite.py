@@ -81,6 +81,36 @@ def wall_scenario(ground: int = 7, flying: int = 6, *, ticks: int = 650, seed: i
                            obstacles=[{"box": [[4.0, -5.0], [4.6, 5.0]], "z": [0.0, 0.5]}])
 
 
+def window_wall(x=(4.0, 4.5), y_span=(-5.0, 5.0), window_y=(-1.0, 1.0), window_z=(0.8, 1.8), top=2.5) -> list:
+    """A wall across the arena (x in ``x``, y in ``y_span``, from the ground to ``top``) with a window.
+
+    The window is the hole y in ``window_y``, z in ``window_z``; the wall is four boxes (prisms with a z-extent)
+    round it: below, above, and on either side.
+    """
+    (xa, xb), (ya, yb), (wa, wb), (za, zb) = x, y_span, window_y, window_z
+    return [{"box": [[xa, wa], [xb, wb]], "z": [0.0, za]}, {"box": [[xa, wa], [xb, wb]], "z": [zb, top]},
+            {"box": [[xa, ya], [xb, wa]], "z": [0.0, top]}, {"box": [[xa, wb], [xb, yb]], "z": [0.0, top]}]
+
+
+def window_scenario(flying: int = 9, ground: int = 1, *, ticks: int = 450, seed: int = 1, **kw) -> dict:
+    """Build a 3-D arena cut by a wall from the ground to the ceiling (2.5 m) with a window, the target beyond it.
+
+    The wall (x in [4, 4.5]) has a window y in [-1, 1], z in [0.8, 1.8]; the target is at (8, 0) on the ground.
+    The root and ``ground - 1`` ground robots stand nearest the target, the ``flying`` flying robots (on the
+    ground, free to fly between 0 and 2.5 m) behind the root. The 3-D planner (``air`` = [0, 2.5]) finds pi
+    through the window: up from the root, through the window at about 1.1 m, down to the target.
+    """
+    pts = cluster(ground) + [[-0.6 - x, y] for x, y in cluster(flying + 1)[1:]]
+    area = [[-3.0, -5.0], [11.0, 5.0]]
+    beh = {"use": "relays", "targets": [[8.0, 0.0]], "area": area, "air": [0.0, 2.5], **kw}
+    common = {"speed": PAPER["vmax"], "body_radius": 0.125, "knows_map": True}
+    groups = [{"positions": [p + [0.0] for p in pts[:ground]], **common, "behaviors": [beh]},
+              {"positions": [p + [0.0] for p in pts[ground:]], "kind": "flying", "altitude": [0.0, 2.5], **common,
+               "behaviors": [{**beh, "kind": "flying"}]}]
+    return relays_scenario(ground + flying, ticks=ticks, seed=seed, dims=3, groups=groups,
+                           bounds=[[-3.0, -5.0, 0.0], [11.0, 5.0, 2.5]], obstacles=window_wall(top=2.5))
+
+
 def maze_cells(cols: int, rows: int, corridor: int = 2, wall: int = 1, cell: float = 1.0):
     """Centre of maze cell (c, r) (r = 0 the top row, as ``swarmactors.maps.maze`` draws it), in world units."""
     step, height = corridor + wall, rows * (corridor + wall) + wall
@@ -136,8 +166,8 @@ def _case(name: str, sc: dict, checks: list[dict] | None = None) -> Case:
 def suite(mode: str) -> list[Case]:
     """Open field, three consecutive failures, realtime; the full suite adds more.
 
-    The full suite adds the C-shape, loss, WP, two targets, ground + flying, a generated maze and two
-    redundant chains to one target.
+    The full suite adds the C-shape, loss, WP, two targets, ground + flying (over a low wall, and through a
+    window with the 3-D planner), a generated maze and two redundant chains to one target.
     """
     cases = [
         _case("open-10", relays_scenario(10, [[8.0, 0.0]], ticks=260)),
@@ -154,6 +184,7 @@ def suite(mode: str) -> list[Case]:
             _case("open-10-wp", relays_scenario(10, [[8.0, 0.0]], ticks=260, wp=True)),
             _case("open-12-two-targets", relays_scenario(12, [[5.0, 3.0], [5.0, -3.0]], ticks=600)),
             _case("wall-ground-and-flying-13", wall_scenario(ticks=500)),
+            _case("window-ground-and-flying-14", window_scenario(8, 6, ticks=450)),
             _case("maze-3x3-16", maze_scenario(16, 3, 3, maze_seed=0, ticks=450)),
             _case("open-18-two-chains", relays_scenario(18, [[8.0, 0.0]], ticks=400, chains_per_target=2)),
         ]

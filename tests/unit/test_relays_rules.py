@@ -116,6 +116,8 @@ def test_a_malformed_plan_is_refused_with_its_reason(value, why):
     ({"targets": [[1, 0]], "wp": "yes"}, "wp"),
     ({"targets": [[1, 0]], "chains_per_target": 0}, "chains_per_target = 0"),
     ({"targets": [[1, 0]], "spacing": -0.3}, "spacing"),
+    ({"targets": [[1, 0]], "air": [2.0, 1.0]}, "air = [2.0, 1.0]"),
+    ({"targets": [[1, 0]], "air": 2.5}, "air = 2.5"),
 ])
 def test_bad_parameters_are_refused(params, fragment):
     assert fragment in Relays.validate(params)
