@@ -390,21 +390,28 @@ def beacon_body_size() -> int:
 
 
 # --------------------------------------------------------------------------- realtime
-def realtime_case(n: int, k: int, seconds: float) -> dict:
-    dt, c = 0.05, 0.01
-    sc = scenario.load(
+REALTIME_DT, REALTIME_C = 0.05, 0.01  # the realtime runs' tick and radio latency c (issue 22)
+
+
+def realtime_scenario(n: int, seconds: float, behavior: str = PROBE) -> dict:
+    """N beacon-placed robots running ``behavior`` in the realtime clock, dt = 50 ms, c = 10 ms, no trace."""
+    return scenario.load(
         BEACON,
         overrides=[
             f"robots.0.count={n}",
             'run.clock="realtime"',
-            f"run.dt={dt}",
-            f"run.ticks={int(seconds / dt)}",
-            f"radio.latency_s={c}",
+            f"run.dt={REALTIME_DT}",
+            f"run.ticks={int(seconds / REALTIME_DT)}",
+            f"radio.latency_s={REALTIME_C}",
             "run.trace=false",
-            f'robots.0.behaviors=[{{use = "{PROBE}"}}]',
+            f'robots.0.behaviors=[{{use = "{behavior}"}}]',
         ],
     )
-    data, meters = run_emulator(sc, k)
+
+
+def realtime_case(n: int, k: int, seconds: float) -> dict:
+    dt, c = REALTIME_DT, REALTIME_C
+    data, meters = run_emulator(realtime_scenario(n, seconds), k)
     delays, uplink, mono = [], [], []
     for r in data["robots"].values():
         rep = r.get("latency_probe") or {}
