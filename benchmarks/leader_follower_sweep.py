@@ -16,6 +16,11 @@ Part 1 over the issue's 200 starts as one sweep (a trial = one start with one me
 starts.json with the tallies beside trials.csv), locally or on a Dask cluster:
 
     swarmactors sweep benchmarks/leader-follower-starts.toml [--cluster tcp://SCHEDULER:8786] [--trials 20]
+
+Part 2 as one sweep too (a trial = one start with one noise level or sampling period; the post step writes
+margins.json, the margin's spread per variant, beside trials.csv):
+
+    swarmactors sweep benchmarks/leader-follower-margins.toml [--cluster tcp://SCHEDULER:8786] [--trials 10]
 """
 
 from __future__ import annotations
@@ -67,6 +72,47 @@ def sweep_tally(csv_path, out_dir) -> list:
                          "min_body_margin": min(r["body_margin"] for r in mine)}
     path = Path(out_dir) / "starts.json"
     path.write_text(json.dumps(tally, indent=1))
+    return [path]
+
+
+VARIANTS = {"noise 0": (0.0, 0.05), "noise 0.01": (0.01, 0.05), "noise 0.02": (0.02, 0.05),
+            "noise 0.05": (0.05, 0.05), "dt 0.01": (0.0, 0.01), "dt 0.1": (0.0, 0.1), "dt 0.2": (0.0, 0.2)}
+
+
+def margin_trial(params: dict, *, seed: int, trial: int) -> dict:
+    """One start of ``benchmarks/leader-follower-margins.toml``: the proposed method on configuration ``1000 + trial``.
+
+    The sensing noise (m) and sampling period (s) are those of ``params["variant"]`` (``VARIANTS``).
+    """
+    noise, dt = VARIANTS[params["variant"]]
+    sc = suite.random_scenario(int(params["followers"]), 1000 + trial, duration=float(params["duration"]), dt=dt,
+                               noise=noise)
+    return {"start": 1000 + trial, "variant": params["variant"], "noise": noise, "dt": dt, **one(sc)}
+
+
+def margin_tally(csv_path, out_dir) -> list:
+    """The post step of the margins sweep: per variant, the body margin's quantiles and the guarantee counts."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from swarmactors.sweep import returned_values
+
+    rows = returned_values(csv_path)
+    out = {}
+    for variant in VARIANTS:
+        mine = [r for r in rows if r["variant"] == variant]
+        if not mine:
+            continue
+        held = [r for r in mine if r["assumptions_held"]]
+        margins = np.array([r["body_margin"] for r in mine])
+        out[variant] = {"runs": len(mine), "collision_runs": sum(r["collisions"] > 0 for r in mine),
+                        "assumption_broken_runs": len(mine) - len(held),
+                        "guarantees_broken_where_assumptions_held": sum(not r["guarantees"] for r in held),
+                        "margin_min": float(margins.min()), "margin_p10": float(np.quantile(margins, 0.1)),
+                        "margin_median": float(np.median(margins))}
+    path = Path(out_dir) / "margins.json"
+    path.write_text(json.dumps(out, indent=1))
     return [path]
 
 
