@@ -16,7 +16,6 @@ from collections import deque
 from collections.abc import Callable
 
 import numpy as np
-from scipy import ndimage
 
 
 class Grid:
@@ -115,7 +114,7 @@ class Grid3:
         for c in self.blocked:
             if all(-1 <= c[k] <= self.shape[k] for k in range(3)):
                 self._free[c[0] + 1, c[1] + 1, c[2] + 1] = False
-        self._parts = None
+        self._parts: dict[tuple[int, int, int], np.ndarray] = {}  # flood-filled component of a seed voxel
 
     def centre(self, cell: tuple[int, int, int]) -> tuple[float, float, float]:
         return (self.x0 + (cell[0] + 0.5) * self.res, self.y0 + (cell[1] + 0.5) * self.res,
@@ -135,11 +134,30 @@ class Grid3:
         """Whether two free voxels are in one component (the PE flag).
 
         With no corner cutting a diagonal move needs its whole cube free, so it can be replaced by face
-        moves: the components of the 26-connected moves are those of 6-connectivity (scipy's labelling).
+        moves: the components of the 26-connected moves are those of 6-connectivity, flood-filled from ``a`` with
+        numpy (robot hosts do not import scipy: tests/test_host_imports.py).
         """
-        if self._parts is None:
-            self._parts = ndimage.label(self._free)[0]
-        return bool(self._parts[a[0] + 1, a[1] + 1, a[2] + 1] == self._parts[b[0] + 1, b[1] + 1, b[2] + 1])
+        if a not in self._parts:
+            self._parts[a] = self._component((a[0] + 1, a[1] + 1, a[2] + 1))
+        return bool(self._parts[a][b[0] + 1, b[1] + 1, b[2] + 1])
+
+    def _component(self, seed: tuple[int, int, int]) -> np.ndarray:
+        """The free voxels 6-connected to ``seed`` (indices into the padded grid), by repeated face dilation."""
+        free = self._free
+        reached = np.zeros_like(free, dtype=bool)
+        reached[seed] = bool(free[seed])
+        while True:
+            grown = reached.copy()
+            for axis in range(3):
+                lo = [slice(None)] * 3
+                hi = [slice(None)] * 3
+                lo[axis], hi[axis] = slice(1, None), slice(None, -1)
+                grown[tuple(lo)] |= reached[tuple(hi)]
+                grown[tuple(hi)] |= reached[tuple(lo)]
+            grown &= free
+            if np.array_equal(grown, reached):
+                return reached
+            reached = grown
 
     def neighbours(self, cell: tuple[int, int, int]):
         c = cell
