@@ -292,7 +292,9 @@ def test_tdsm_equals_brute_force(inst):
     tctm, tdsm = solve(inst, 10, EXACT)
     _checked(inst, tctm)
     _checked(inst, tdsm)
-    assert tdsm.objective == pytest.approx(brute_tdsm(inst, completion_time(inst, tctm)), rel=1e-6, abs=1e-6)
+    # HiGHS accepts a binary within 1e-6 of 1, so a big-M row keeps up to M * 1e-6 of slack and the objective can
+    # sit a few 1e-6 off (seen: 0.749999 for 0.75); distinct objectives of these grid instances are >= 0.01 apart
+    assert tdsm.objective == pytest.approx(brute_tdsm(inst, completion_time(inst, tctm)), rel=1e-6, abs=1e-4)
 
 
 def test_every_schedule_of_a_random_batch_passes_the_independent_check():
