@@ -70,7 +70,32 @@ def failures(n: int, fraction: float, start: int, ticks: int, seed: int) -> list
     return sorted(events.items())
 
 
-def scenario(arena: int, chains: int, fraction: float, trial: int, ticks: int) -> dict:
+def heterogeneous(sc: dict, flying: int = 5, wall_x: tuple[float, float] = (29.4, 29.9), altitude: float = 0.7,
+                  wall_top: float = 0.5) -> dict:
+    """Arena 1 as the paper's Fig. 7 has it: 20 ground and 5 flying robots, a section only flying robots cross.
+
+    The generated maze of arena 1 has one corridor to the target (down the left column, then along the bottom
+    row); a wall ``wall_top`` high across that row at x in ``wall_x`` (9.3 m before the target, less than d_s)
+    stops ground robots, so every chain's worker must be a flying robot (at ``altitude``, above the wall) and
+    the rest of the chain can be ground robots. The world becomes 3-D (z from 0 to 2 m); the flying robots are
+    the ``flying`` robots placed farthest from the root, so a ground robot is usually elected first and hands
+    over (Fig. 4).
+    """
+    group = sc["robots"][0]
+    pos = group["positions"]
+    cut = len(pos) - flying
+    beh = group["behaviors"][0]
+    common = {k: v for k, v in group.items() if k not in ("positions", "behaviors")}
+    sc["robots"] = [{**common, "positions": [p + [0.0] for p in pos[:cut]], "behaviors": [beh]},
+                    {**common, "positions": [p + [altitude] for p in pos[cut:]], "kind": "flying",
+                     "altitude": [altitude, altitude], "behaviors": [{**beh, "kind": "flying"}]}]
+    side = ARENAS[1]["cell"] * (ARENAS[1]["cols"] * 3 + 1)
+    sc["world"].update(dims=3, bounds=[[0.0, 0.0, 0.0], [side, side, 2.0]],
+                       obstacles=[{"box": [[wall_x[0], 0.0], [wall_x[1], side]], "z": [0.0, wall_top]}])
+    return sc
+
+
+def scenario(arena: int, chains: int, fraction: float, trial: int, ticks: int, hetero: bool = False) -> dict:
     a = ARENAS[arena]
     sc = maze_scenario(a["robots"], a["cols"], a["rows"], maze_seed=a["maze_seed"], cell=a["cell"], ticks=ticks,
                        seed=trial + 1, dt=DT, radio_range=RANGE, chains_per_target=chains, **LARGE,
@@ -83,13 +108,17 @@ def scenario(arena: int, chains: int, fraction: float, trial: int, ticks: int) -
     kills = failures(a["robots"], fraction, start, ticks, trial)
     if kills:
         sc["events"] = [{"at": at, "kill": ids} for at, ids in kills]
+    if hetero:
+        if arena != 1:
+            raise ValueError(f"hetero = 1 is arena 1's case (the paper's 20 ground + 5 flying), not arena {arena}")
+        sc = heterogeneous(sc)
     return sc
 
 
-def run_one(arena: int, chains: int, fraction: float, trial: int, ticks: int) -> dict:
+def run_one(arena: int, chains: int, fraction: float, trial: int, ticks: int, hetero: bool = False) -> dict:
     from swarmactors.launcher import run
 
-    sc = scenario(arena, chains, fraction, trial, ticks)
+    sc = scenario(arena, chains, fraction, trial, ticks, hetero)
     t0 = time.time()
     with tempfile.TemporaryDirectory() as tmp:
         r = run(sc, out=tmp)
@@ -100,7 +129,10 @@ def run_one(arena: int, chains: int, fraction: float, trial: int, ticks: int) ->
                   default=None)
     done = [c["value"] for c in reached if c["value"] is not None]
     all_reached = len(done) == chains and all(c["passed"] for c in reached)
+    flying = sum(len(g["positions"]) for g in sc["robots"] if g.get("kind") == "flying")
+    workers = [rep for rep in reports.values() if rep.get("path")]
     out = {"arena": arena, "chains": chains, "F": fraction, "trial": trial, "robots": ARENAS[arena]["robots"],
+           "hetero": int(hetero), "flying": flying, "worker_kinds": sorted(rep.get("kind") for rep in workers),
            "killed": sum(len(e["kill"]) for e in sc.get("events", [])), "ticks": ticks,
            "wall_s": round(time.time() - t0, 1), "reached": len(done), "all_reached": all_reached,
            "links_ok": all(c["passed"] for c in r.checks if c["name"] == "relays.links_within_db"),
@@ -118,7 +150,7 @@ def sweep_trial(params: dict, *, seed: int, trial: int) -> dict:
     """One run of ``benchmarks/relays-fig7.toml``: arena, chains (C_n) and failure bound F from the grid."""
     arena, chains, fraction = int(params["arena"]), int(params["chains"]), float(params["F"])
     ticks = int(params.get("ticks", {1: 1500, 2: 2200, 3: 5000}[arena]))
-    return run_one(arena, chains, fraction, trial, ticks)
+    return run_one(arena, chains, fraction, trial, ticks, bool(int(params.get("hetero", 0))))
 
 
 def sweep_figures(csv_path: Path, out_dir: Path) -> list[Path]:
@@ -193,4 +225,5 @@ if __name__ == "__main__":
     import sys
 
     a, c, f, t, ticks = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3]), int(sys.argv[4]), int(sys.argv[5])
-    print(json.dumps(run_one(a, c, f, t, ticks)))
+    hetero = len(sys.argv) > 6 and bool(int(sys.argv[6]))
+    print(json.dumps(run_one(a, c, f, t, ticks, hetero)))
