@@ -317,13 +317,31 @@ def _unless_timeout(exc: BaseException) -> None:
 
 _UNSEEN = object()
 _replace = msgspec.structs.replace
+_SCALARS = frozenset({int, float, str, bytes, bool, type(None)})  # what msgpack decodes to that cannot change
+
+
+def _copier(body: Any) -> Any:
+    """How further receivers of a decoded body get their own copy of it.
+
+    None (immutable: share it), ``list.copy`` or ``dict.copy`` (a flat list or map of immutable values), or
+    ``...`` (nested: decode it again).
+    """
+    t = type(body)
+    if t in _SCALARS:
+        return None
+    if t is list and all(type(x) in _SCALARS for x in body):
+        return list.copy
+    if t is dict and all(type(x) in _SCALARS for x in body.values()):
+        return dict.copy
+    return ...
 
 
 class FrameTable:
     """A downlink's frames, decoded once per host and handed out so that robots share nothing.
 
-    A body is decoded once; an immutable one (a number, string, bytes, None) is shared by every receiver,
-    a list or map is decoded again for each further receiver, so no robot sees another's changes.
+    A body is decoded once; an immutable one (a number, string, bytes, None) is shared by every receiver; a flat
+    list or map of immutable values is copied for each further receiver, and a nested one decoded again, so no
+    robot sees another's changes.
     """
 
     __slots__ = ("_frames", "_given", "_again")
@@ -331,21 +349,25 @@ class FrameTable:
     def __init__(self, frames: list[FrameIn]):
         self._frames = frames
         self._given: list[Any] = [_UNSEEN] * len(frames)  # the first receiver's Frame (None: undecodable)
-        self._again: list[bytes | None] = [None] * len(frames)  # the body to decode for further receivers
+        self._again: list[Any] = [None] * len(frames)  # how further receivers get their body (``_copier``)
 
     def _first(self, k: int) -> Frame | None:
-        f = self._frames[k]
-        frame = self._given[k] = decode_body(f)
-        if frame is not None and isinstance(frame.body, (list, dict)):
-            self._again[k] = f.body
+        frame = self._given[k] = decode_body(self._frames[k])
+        if frame is not None:
+            self._again[k] = _copier(frame.body)
         return frame
+
+    def _copy(self, k: int, frame: Frame) -> Frame:
+        how = self._again[k]
+        if how is ...:
+            return _replace(frame, body=_body_decoder.decode(self._frames[k].body))
+        return _replace(frame, body=how(frame.body))
 
     def frame(self, k: int) -> Frame | None:
         frame = self._given[k]
         if frame is _UNSEEN:
             return self._first(k)
-        again = self._again[k]
-        return frame if again is None else _replace(frame, body=_body_decoder.decode(again))
+        return frame if frame is None or self._again[k] is None else self._copy(k, frame)
 
     def inbox(self, refs: list[int]) -> tuple[list[Frame], int]:
         """One robot's frames (its slice of the table, in order) and how many had a body that does not decode."""
@@ -356,8 +378,10 @@ class FrameTable:
             frame = given[k]
             if frame is _UNSEEN:
                 frame = self._first(k)
-            elif again[k] is not None:
-                frame = _replace(frame, body=_body_decoder.decode(again[k]))
+            elif frame is not None:
+                how = again[k]
+                if how is not None:
+                    frame = _replace(frame, body=how(frame.body)) if how is not ... else self._copy(k, frame)
             if frame is None:
                 bad += 1
             else:
@@ -462,8 +486,9 @@ class RobotHost:
         for descr in msg.new:
             self._adopt(descr)
 
-    def _set_inputs(self, robot: Robot, pose: list, now: float, objects: dict, known: list[str] | None,
+    def _set_inputs(self, robot: Robot, pose, now: float, objects: dict, known: list[str] | None,
                     rays: list[float] | None = None) -> None:
+        """A robot's inputs of a tick into its context; ``pose`` (a list or an array row) is copied."""
         ctx = robot.ctx
         ctx._rays = None if rays is None else tuple(rays)
         ctx.pose = np.array(pose, dtype=float)
@@ -521,31 +546,40 @@ class RobotHost:
     async def _step_lockstep(self, msg: Inputs) -> list[RobotOut]:
         self._take_membership(msg)
         now, objects = msg.now, msg.objects
+        cols = msg.columns()
+        poses, sptr, sids, sat, iptr, refs = (cols.poses, cols.sensed_ptr, cols.sensed_ids, cols.sensed_at,
+                                              cols.inbox_ptr, cols.refs)
+        known, rays, rab = msg.known, msg.rays, msg.rab
         frames = FrameTable(msg.frames)
-        dims = len(msg.robots[0].pose) - 1 if msg.robots else 2
+        dims = msg.dims
+        robots = self.robots
         pending: dict[asyncio.Task, Robot] = {}
         stepped: list[Robot] = []
-        for row in msg.robots:
-            robot = self.robots.get(row.id)
+        for i, rid in enumerate(cols.ids):
+            robot = robots.get(rid)
             if robot is None or not robot.alive:
                 if robot is not None and robot.error and not robot.error_sent:
                     stepped.append(robot)  # tell the world once why this robot is gone
                 continue
-            self._set_inputs(robot, row.pose, now, objects, row.objects, row.rays)
-            if row.rab is not None:  # each receiver's own range and bearing (frame.rab)
-                inbox = [frames.frame(k) for k in row.inbox]
-                inbox = [f if f is None else msgspec.structs.replace(f, rab=(row.rab[2 * j], row.rab[2 * j + 1]))
-                         for j, f in enumerate(inbox)]
+            self._set_inputs(robot, poses[i], now, objects, None if known is None else known[i],
+                             None if rays is None else rays[i])
+            a, b = iptr[i], iptr[i + 1]
+            if rab is not None and rab[i] is not None:  # each receiver's own range and bearing (frame.rab)
+                rb = rab[i]
+                inbox = [frames.frame(k) for k in refs[a:b]]
+                inbox = [f if f is None else _replace(f, rab=(rb[2 * j], rb[2 * j + 1])) for j, f in enumerate(inbox)]
                 if None in inbox:
                     robot.bad_bodies += inbox.count(None)
                     inbox = [f for f in inbox if f is not None]
-            elif row.inbox:
-                inbox, bad = frames.inbox(row.inbox)
-                robot.bad_bodies += bad
+            elif a < b:
+                inbox, bad = frames.inbox(refs[a:b])
+                if bad:
+                    robot.bad_bodies += bad
             else:
                 inbox = []
-            ids, flat = row.sensed
-            rest = run_calls(robot, robot.calls(inbox, SensedView(ids, flat, dims, robot.local)))
+            a, b = sptr[i], sptr[i + 1]
+            rest = run_calls(robot, robot.calls(inbox, SensedView(sids[a:b], sat[a * dims:b * dims], dims,
+                                                                  robot.local)))
             if rest is not None:
                 pending[asyncio.ensure_future(rest)] = robot
             stepped.append(robot)
