@@ -158,8 +158,8 @@ class RobotIn(msgspec.Struct):
     rab: list[float] | None = None  # (range, bearing) of each inbox frame, flattened (frame.rab)
 
 
-# The numeric columns of ``Inputs``: little-endian, whatever the machine (hosts may run on other machines).
-I64 = np.dtype("<i8")
+# The numeric columns of ``Inputs``: little-endian, whatever the machine (hosts may run on other machines). Robot
+# ids fit int32: a scenario may ask for at most 1,000,000 robots (swarmactors/scenario.py, MAX_ROBOTS_LIMIT).
 F64 = np.dtype("<f8")
 I32 = np.dtype("<i4")
 
@@ -193,8 +193,8 @@ def _offsets(data: bytes, n: int, total: int, name: str) -> np.ndarray:
     if not data:
         if total:
             raise ValueError(f"{name}: no offsets for {total} items")
-        return np.zeros(n + 1, dtype=np.int64)
-    ptr = _column(data, I64, name)
+        return np.zeros(n + 1, dtype=I32)
+    ptr = _column(data, I32, name)
     if len(ptr) != n + 1 or ptr[0] != 0 or ptr[-1] != total or (n and (np.diff(ptr) < 0).any()):
         raise ValueError(f"{name}: not {n + 1} non-decreasing offsets from 0 to {total}")
     return ptr
@@ -203,10 +203,10 @@ def _offsets(data: bytes, n: int, total: int, name: str) -> np.ndarray:
 class Inputs(msgspec.Struct, tag="in", forbid_unknown_fields=True, omit_defaults=True, dict=True):
     """A tick's inputs for one host, as columns (one row per robot, in ``ids`` order).
 
-    ``ids`` (int64) are the robots; ``poses`` (float64) one row of ``dims`` + 1 numbers per robot (position,
-    heading); ``sensed`` (int64 offsets into ``sensed_ids``) and ``sensed_ids`` (int64) the robots each senses,
-    with ``dims`` numbers each in ``sensed_at`` (float64); ``inbox`` (int64 offsets into ``refs``) and ``refs``
-    (int32 indices into ``frames``) each robot's inbox in delivery order. Numbers are little-endian. Each frame
+    ``ids`` are the robots; ``poses`` (float64) one row of ``dims`` + 1 numbers per robot (position, heading);
+    ``sensed`` (offsets into ``sensed_ids``) and ``sensed_ids`` the robots each senses, with ``dims`` numbers each
+    in ``sensed_at`` (float64); ``inbox`` (offsets into ``refs``) and ``refs`` (indices into ``frames``) each
+    robot's inbox in delivery order. Integers are int32, every number little-endian. Each frame
     body travels once per host (``frames``), however many of its robots receive it. ``known`` (the object names
     each robot knows; None: every robot knows every object), ``rays`` and ``rab`` are per robot when present.
     ``dead`` and ``new`` change the host's robots; ``epoch`` is the realtime clock's start (wall time).
@@ -235,7 +235,7 @@ class Inputs(msgspec.Struct, tag="in", forbid_unknown_fields=True, omit_defaults
     new: list[RobotDescr] = msgspec.field(default_factory=list)
 
     def __post_init__(self) -> None:
-        ids = _column(self.ids, I64, "ids")
+        ids = _column(self.ids, I32, "ids")
         n = len(ids)
         if n and ids.min() < 0:
             raise ValueError("ids: a negative robot id")
@@ -243,7 +243,7 @@ class Inputs(msgspec.Struct, tag="in", forbid_unknown_fields=True, omit_defaults
         poses = _column(self.poses, F64, "poses")
         if len(poses) != n * w:
             raise ValueError(f"poses: {len(poses)} numbers for {n} robots of {w}")
-        sids = _column(self.sensed_ids, I64, "si")
+        sids = _column(self.sensed_ids, I32, "si")
         sat = _column(self.sensed_at, F64, "sx")
         if len(sat) != len(sids) * self.dims:
             raise ValueError(f"sx: {len(sat)} numbers for {len(sids)} sensed robots of {self.dims}")
@@ -298,12 +298,12 @@ class Inputs(msgspec.Struct, tag="in", forbid_unknown_fields=True, omit_defaults
         opt = {name: [getattr(r, attr) for r in rows] if any(getattr(r, attr) is not None for r in rows) else None
                for name, attr in (("known", "objects"), ("rays", "rays"), ("rab", "rab"))}
         return cls(tick, now, dims,
-                   ids=np.array([r.id for r in rows], dtype=I64).tobytes(),
+                   ids=np.array([r.id for r in rows], dtype=I32).tobytes(),
                    poses=np.array([r.pose for r in rows], dtype=F64).tobytes(),
-                   sensed=np.concatenate([[0], np.cumsum(sn)]).astype(I64).tobytes() if sum(sn) else b"",
-                   sensed_ids=np.array([i for r in rows for i in r.sensed[0]], dtype=I64).tobytes(),
+                   sensed=np.concatenate([[0], np.cumsum(sn)]).astype(I32).tobytes() if sum(sn) else b"",
+                   sensed_ids=np.array([i for r in rows for i in r.sensed[0]], dtype=I32).tobytes(),
                    sensed_at=np.array([v for r in rows for v in r.sensed[1]], dtype=F64).tobytes(),
-                   inbox=np.concatenate([[0], np.cumsum(bn)]).astype(I64).tobytes() if sum(bn) else b"",
+                   inbox=np.concatenate([[0], np.cumsum(bn)]).astype(I32).tobytes() if sum(bn) else b"",
                    refs=np.array([k for r in rows for k in r.inbox], dtype=I32).tobytes(),
                    frames=list(frames), objects=dict(objects or {}), **opt, **more)
 

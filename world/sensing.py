@@ -76,21 +76,23 @@ def reach(pos: np.ndarray, alive_ids: np.ndarray, radii: np.ndarray) -> Reach:
         return Reach(np.zeros(n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64))
     pts = pos[alive_ids]
     r = radii[alive_ids]
-    tree = cKDTree(pts)
+    # an unbalanced, uncompacted tree builds faster and gives the same candidates (the rule decides below)
+    tree = cKDTree(pts, balanced_tree=False, compact_nodes=False)
     pairs = tree.query_pairs(max(float(r.max()), 0.0) * (1 + MARGIN) + 1e-12, output_type="ndarray")
-    a = np.concatenate([pairs[:, 0], pairs[:, 1]]).astype(np.int64)
-    b = np.concatenate([pairs[:, 1], pairs[:, 0]]).astype(np.int64)
-    diff = pts[b] - pts[a]
+    a, b = pairs[:, 0].astype(np.int64), pairs[:, 1].astype(np.int64)
+    diff = pts[b] - pts[a]  # the other direction's differences are these negated: the same squares
     d2 = diff[:, 0] * diff[:, 0]
     for k in range(1, diff.shape[1]):
         d2 = d2 + diff[:, k] * diff[:, k]
-    keep = d2 <= r[a] * r[a]
-    src, dst = alive_ids[a[keep]], alive_ids[b[keep]]
-    order = np.lexsort((dst, src))
+    ab, ba = d2 <= r[a] * r[a], d2 <= r[b] * r[b]
+    src = alive_ids[np.concatenate([a[ab], b[ba]])]
+    dst = alive_ids[np.concatenate([b[ab], a[ba]])]
+    key = np.sort(src * n + dst)  # rows in id order, each row sorted
+    src = key // n
     counts = np.bincount(src, minlength=n)
     indptr = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(counts, out=indptr[1:])
-    return Reach(indptr, dst[order])
+    return Reach(indptr, key - src * n)
 
 
 def within(pos: np.ndarray, alive_ids: np.ndarray, radii: np.ndarray) -> dict[int, np.ndarray]:

@@ -38,7 +38,6 @@ from transport.messages import (
     CLOCK_COMMANDS,
     F64,
     I32,
-    I64,
     MAX_PER_REQUEST,
     MAX_ROBOTS,
     PROTOCOL_VERSION,
@@ -323,14 +322,14 @@ class World:
                 for k in used.tolist():
                     f, sent_tick = pairs[k]
                     frames.append(FrameIn(f.src, f.kind, f.seq, f.body, sent_tick))
-                inbox, refs = iptr.astype(I64).tobytes(), local.astype(I32).tobytes()
+                inbox, refs = iptr.astype(I32).tobytes(), local.astype(I32).tobytes()
                 if self.situated.rab:
                     rab = self._rab_rows(ids, iptr, due.src[dk], due.seq[dk])
         known = self._known
         rays = self._rays
-        msg = Inputs(self.tick, self.clock.now(), self.dims, ids.astype(I64).tobytes(),
+        msg = Inputs(self.tick, self.clock.now(), self.dims, ids.astype(I32).tobytes(),
                      self._poses[ids].astype(F64).tobytes(),
-                     sptr.astype(I64).tobytes() if len(sk) else b"", self._sensed.ids[sk].astype(I64).tobytes(),
+                     sptr.astype(I32).tobytes() if len(sk) else b"", self._sensed.ids[sk].astype(I32).tobytes(),
                      self._sensed.at[sk].astype(F64).tobytes(), inbox, refs, frames,
                      None if known is None else [known.get(rid, []) for rid in ids.tolist()],
                      [rays.get(rid) for rid in ids.tolist()] if rays else None, rab, self.objects)

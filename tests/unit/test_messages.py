@@ -153,15 +153,15 @@ def test_inputs_columns_round_trip_to_the_same_rows():
     assert cols.poses.tolist() == [r.pose for r in ROWS] and got.known == [["target"], [], None]
     # numbers are little-endian on the wire, whatever the machine
     plain = msgpack.unpackb(encode(msg), raw=False)
-    assert plain["ids"] == (3).to_bytes(8, "little") + (4).to_bytes(8, "little") + (9).to_bytes(8, "little")
+    assert plain["ids"] == (3).to_bytes(4, "little") + (4).to_bytes(4, "little") + (9).to_bytes(4, "little")
     assert plain["refs"][:4] == (1).to_bytes(4, "little")
 
 
 @pytest.mark.parametrize("field,value,words", [
     ("ids", b"\x01\x00", "whole number"),
-    ("ids", (-1).to_bytes(8, "little", signed=True) * 3, "negative"),
+    ("ids", (-1).to_bytes(4, "little", signed=True) * 3, "negative"),
     ("poses", b"\x00" * 8, "poses"),
-    ("sensed", b"\x00" * 8 * 4, "offsets"),  # all zero: does not end at the 3 sensed robots
+    ("sensed", b"\x00" * 4 * 4, "offsets"),  # all zero: does not end at the 3 sensed robots
     ("si", b"", "sx"),
     ("inbox", b"", "no offsets"),
     ("refs", (5).to_bytes(4, "little") * 4, "outside"),
