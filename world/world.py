@@ -279,7 +279,7 @@ class World:
         rec = self.record.take()
         for sink in self.sinks:
             sink.record(rec)
-        if self.state_every and self.tick % self.state_every == 0:
+        if self.state_every and self.tick % self.state_every == 0 and self._state_watched():
             state = State(self.tick, rec["pos"], {int(r): self.robots.status[r] for r in alive},
                           self.robots.range[alive].round(POS_DIGITS).tolist(), self.objects,
                           dict(self.counters.dropped), self.counters.sent)
@@ -299,6 +299,11 @@ class World:
             np.clip(np.nan_to_num(self.robots.pos[rid]), -MAX_COORD, MAX_COORD, out=self.robots.pos[rid])
             self.counters.refused[INVALID_POSITION] += 1
             self.faults.crash(rid, self.tick, INVALID_POSITION, f"position {where!r} beyond the world's limit")
+
+    def _state_watched(self) -> bool:
+        """Whether an observer subscribes to ``state`` (a snapshot nobody reads is not built)."""
+        subscribed = getattr(self.link, "subscribed", None)
+        return subscribed is None or subscribed(self.keys.state)
 
     def _inputs_for(self, host: str, due: Due | None) -> Inputs:
         """Step 3: one host's inputs for this tick, as columns (each frame body once per host).
