@@ -1,9 +1,9 @@
 #!/usr/bin/env python
 """The world's tick: CPU per delivery of the world process, this tree against a baseline commit, and scale.
 
-    python benchmarks/world_tick.py ab [--base e83c6c9] [--new COMMIT] [--n 1000] [--repeats 5] [--out FILE]
+    python benchmarks/world_tick.py ab [--base e83c6c9] [--new COMMIT] [--n 1000] [--k 2] [--repeats 5] [--out FILE]
     python benchmarks/world_tick.py scale [--n 1000 10000] [--ticks 20] [--k 2] [--repeats 3] [--out FILE]
-    python benchmarks/world_tick.py stages [--n 1000] [--ticks 30]
+    python benchmarks/world_tick.py stages [--n 1000] [--ticks 30] [--base COMMIT --repeats 3]
     python benchmarks/world_tick.py inproc [--base COMMIT] [--n 1000] [--k 2] [--ticks 30] [--repeats 5] [--profile]
 
 ``ab``: the lockstep beacon (every robot broadcasts one small frame per tick; grid spacing 1, range 1.5, so about
@@ -183,8 +183,8 @@ def measure(tree: Path, n: int, ticks: int, k: int = 2, stages: bool = False, tr
     return json.loads(p.stdout.strip().splitlines()[-1])
 
 
-def marginal(tree: Path, n: int, short: int, long: int) -> dict:
-    a, b = measure(tree, n, short), measure(tree, n, long)
+def marginal(tree: Path, n: int, short: int, long: int, k: int = 2) -> dict:
+    a, b = measure(tree, n, short, k), measure(tree, n, long, k)
     d = b["deliveries"] - a["deliveries"]
     return {"world_us": 1e6 * (b["world_cpu"] - a["world_cpu"]) / d, "deliveries": d, "hash": b["hash"],
             "robot_ticks_s": n * b["ticks"] / b["wall_s"]}
@@ -199,14 +199,15 @@ def ab(args) -> dict:
     runs: dict[str, list[dict]] = {"base": [], "new": []}
     for i in range(args.repeats):
         for name in (("base", "new") if i % 2 == 0 else ("new", "base")):
-            r = marginal(trees[name], args.n, args.short, args.long)
+            r = marginal(trees[name], args.n, args.short, args.long, args.k)
             r["load"] = loadavg()
             runs[name].append(r)
             print(f"{i} {name:4s} world {r['world_us']:.2f} us/delivery  {r['robot_ticks_s']:,.0f} robot-ticks/s"
                   f"  load {r['load']}", flush=True)
     med = {name: {k: statistics.median(r[k] for r in rs) for k in ("world_us", "robot_ticks_s")}
            for name, rs in runs.items()}
-    return {"base": args.base, "new": args.new or "working tree", "n": args.n, "ticks": [args.short, args.long],
+    return {"base": args.base, "new": args.new or "working tree", "n": args.n, "k": args.k,
+            "ticks": [args.short, args.long],
             "repeats": args.repeats,
             "median": med, "ratio_new_over_base": med["new"]["world_us"] / med["base"]["world_us"],
             "same_trace_hash": len({r["hash"] for rs in runs.values() for r in rs}) == 1, "runs": runs}
@@ -261,13 +262,29 @@ def inproc(args) -> dict:
 
 
 def stages(args) -> dict:
-    r = measure(ROOT, args.n[0], args.ticks, 2, stages=True)
-    d = r["deliveries"]
-    for name, s in sorted(r["stages"].items(), key=lambda kv: -kv[1]):
-        print(f"{name:14s} {s:7.3f} s  {1e6 * s / d:6.2f} us/delivery")
-    print(f"world CPU {r['world_cpu']:.2f} s ({r['process_cpu']:.2f}) for {d} deliveries (whole run, start-up "
-          "included)")
-    return r
+    if not args.base:
+        r = measure(ROOT, args.n[0], args.ticks, 2, stages=True)
+        d = r["deliveries"]
+        for name, s in sorted(r["stages"].items(), key=lambda kv: -kv[1]):
+            print(f"{name:14s} {s:7.3f} s  {1e6 * s / d:6.2f} us/delivery")
+        print(f"world CPU {r['world_cpu']:.2f} s ({r['process_cpu']:.2f}) for {d} deliveries (whole run, start-up "
+              "included)")
+        return r
+    # --base: both trees, interleaved, --repeats runs each; the median of each stage (µs per delivery)
+    trees = {"base": unpack(args.base), "new": ROOT}
+    runs: dict[str, list[dict]] = {"base": [], "new": []}
+    for i in range(args.repeats):
+        for name in (("base", "new") if i % 2 == 0 else ("new", "base")):
+            r = measure(trees[name], args.n[0], args.ticks, 2, stages=True)
+            r["load"] = loadavg()
+            runs[name].append(r)
+    med = {name: {st: statistics.median(1e6 * r["stages"].get(st, 0.0) / r["deliveries"] for r in rs)
+                  for st in sorted({st for r in rs for st in r["stages"]})} for name, rs in runs.items()}
+    for st in sorted(set(med["base"]) | set(med["new"]), key=lambda st: -med["base"].get(st, 0.0)):
+        print(f"{st:14s} {med['base'].get(st, 0.0):6.2f} -> {med['new'].get(st, 0.0):6.2f} us/delivery")
+    loads = [r["load"] for rs in runs.values() for r in rs]
+    print(f"load {min(loads)}-{max(loads)}; same hash: {len({r['hash'] for rs in runs.values() for r in rs}) == 1}")
+    return {"base": args.base, "n": args.n[0], "ticks": args.ticks, "median_us_per_delivery": med, "runs": runs}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -280,6 +297,7 @@ def main(argv: list[str] | None = None) -> int:
     a.add_argument("--short", type=int, default=10)
     a.add_argument("--long", type=int, default=50)
     a.add_argument("--repeats", type=int, default=5)
+    a.add_argument("--k", type=int, default=2, help="host processes (0: robots in the world's process)")
     s = sub.add_parser("scale")
     s.add_argument("--n", type=int, nargs="+", default=[1000, 10000])
     s.add_argument("--ticks", type=int, default=20)
@@ -289,6 +307,8 @@ def main(argv: list[str] | None = None) -> int:
     g = sub.add_parser("stages")
     g.add_argument("--n", type=int, nargs=1, default=[1000])
     g.add_argument("--ticks", type=int, default=30)
+    g.add_argument("--base", default=None, help="also run this commit's tree, interleaved, and compare")
+    g.add_argument("--repeats", type=int, default=3)
     i = sub.add_parser("inproc")
     i.add_argument("--base", default="0dc0e96")
     i.add_argument("--n", type=int, nargs=1, default=[1000])
@@ -304,7 +324,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(json.dumps(result, indent=2))
-    if args.what not in ("stages",) and not getattr(args, "profile", False):
+    if (args.what != "stages" or args.base) and not getattr(args, "profile", False):
         print(json.dumps({k: v for k, v in result.items() if k != "runs"}, indent=2))
     return 0
 

@@ -491,7 +491,7 @@ class RobotHost:
         """A robot's inputs of a tick into its context; ``pose`` (a list or an array row) is copied."""
         ctx = robot.ctx
         ctx._rays = None if rays is None else tuple(rays)
-        ctx.pose = np.array(pose, dtype=float)
+        ctx.pose = pose.copy() if type(pose) is np.ndarray else np.array(pose, dtype=float)  # its own array
         ctx._set_time(self.tick, now)
         # each robot its own dict, with the objects it knows (an empty one left empty is kept)
         if objects:
