@@ -317,31 +317,13 @@ def _unless_timeout(exc: BaseException) -> None:
 
 _UNSEEN = object()
 _replace = msgspec.structs.replace
-_SCALARS = frozenset({int, float, str, bytes, bool, type(None)})  # what msgpack decodes to that cannot change
-
-
-def _copier(body: Any) -> Any:
-    """How further receivers of a decoded body get their own copy of it.
-
-    None (immutable: share it), ``list.copy`` or ``dict.copy`` (a flat list or map of immutable values), or
-    ``...`` (nested: decode it again).
-    """
-    t = type(body)
-    if t in _SCALARS:
-        return None
-    if t is list and all(type(x) in _SCALARS for x in body):
-        return list.copy
-    if t is dict and all(type(x) in _SCALARS for x in body.values()):
-        return dict.copy
-    return ...
 
 
 class FrameTable:
     """A downlink's frames, decoded once per host and handed out so that robots share nothing.
 
-    A body is decoded once; an immutable one (a number, string, bytes, None) is shared by every receiver; a flat
-    list or map of immutable values is copied for each further receiver, and a nested one decoded again, so no
-    robot sees another's changes.
+    A body is decoded once; an immutable one (a number, string, bytes, None) is shared by every receiver,
+    a list or map is decoded again for each further receiver, so no robot sees another's changes.
     """
 
     __slots__ = ("_frames", "_given", "_again")
@@ -349,25 +331,21 @@ class FrameTable:
     def __init__(self, frames: list[FrameIn]):
         self._frames = frames
         self._given: list[Any] = [_UNSEEN] * len(frames)  # the first receiver's Frame (None: undecodable)
-        self._again: list[Any] = [None] * len(frames)  # how further receivers get their body (``_copier``)
+        self._again: list[bytes | None] = [None] * len(frames)  # the body to decode for further receivers
 
     def _first(self, k: int) -> Frame | None:
-        frame = self._given[k] = decode_body(self._frames[k])
-        if frame is not None:
-            self._again[k] = _copier(frame.body)
+        f = self._frames[k]
+        frame = self._given[k] = decode_body(f)
+        if frame is not None and isinstance(frame.body, (list, dict)):
+            self._again[k] = f.body
         return frame
-
-    def _copy(self, k: int, frame: Frame) -> Frame:
-        how = self._again[k]
-        if how is ...:
-            return _replace(frame, body=_body_decoder.decode(self._frames[k].body))
-        return _replace(frame, body=how(frame.body))
 
     def frame(self, k: int) -> Frame | None:
         frame = self._given[k]
         if frame is _UNSEEN:
             return self._first(k)
-        return frame if frame is None or self._again[k] is None else self._copy(k, frame)
+        again = self._again[k]
+        return frame if again is None else _replace(frame, body=_body_decoder.decode(again))
 
     def inbox(self, refs: list[int]) -> tuple[list[Frame], int]:
         """One robot's frames (its slice of the table, in order) and how many had a body that does not decode."""
@@ -378,10 +356,8 @@ class FrameTable:
             frame = given[k]
             if frame is _UNSEEN:
                 frame = self._first(k)
-            elif frame is not None:
-                how = again[k]
-                if how is not None:
-                    frame = _replace(frame, body=how(frame.body)) if how is not ... else self._copy(k, frame)
+            elif again[k] is not None:
+                frame = _replace(frame, body=_body_decoder.decode(again[k]))
             if frame is None:
                 bad += 1
             else:
