@@ -7,12 +7,12 @@ One host runs N beacon robots on a grid (spacing 0.5, range 0.75: up to 8 neighb
 The tick inputs are built once, the way the world builds them (``transport.messages.Inputs``: a frame table
 with each frame once, every robot's inbox as indices into it, its sensed neighbours), and encoded; what is
 timed is what a host does with them: ``decode`` of the downlink, ``RobotHost._step_lockstep`` (hook dispatch,
-the beacon's own hooks, frame bodies) and the uplink's ``encode`` — no Zenoh, no world. The baseline's
-``swarmactors/host.py`` is read from git (``git show COMMIT:swarmactors/host.py``) and loaded beside this
-tree's under another module name; both run in this process with the product's GC setting
-(``swarmactors.hosting.quiet_gc``), interleaved (A B B A …), ``--repeats`` times each. The robots' reports
-must agree. ``--profile`` prints a cProfile of this tree's step instead. Nothing is asserted; the numbers go to
-docs/benchmarks.md ("A robot host's step").
+the beacon's own hooks, frame bodies) and the uplink's ``encode`` — no Zenoh, no world. The baseline commit's
+tree is unpacked from git (``git archive``) and each run is a fresh process on one tree or the other
+(``PYTHONPATH``), so each side builds and decodes its own wire format (the inputs became columns in issue 21);
+runs are interleaved (A B B A …), ``--repeats`` times each, with the product's GC setting
+(``swarmactors.hosting.quiet_gc``). The robots' reports must agree. ``--profile`` prints a cProfile of this
+tree's step instead. Nothing is asserted; the numbers go to docs/benchmarks.md ("A robot host's step").
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import cProfile
-import importlib.util
+import hashlib
 import json
 import os
 import pstats
@@ -43,19 +43,25 @@ if str(ROOT / "benchmarks") not in sys.path:  # idle_behavior
     sys.path.insert(0, str(ROOT / "benchmarks"))
 
 
-def load_host(commit: str | None):
-    """``swarmactors.host`` of this tree (None) or of ``commit``, as a separate module."""
-    if commit is None:
-        import swarmactors.host as mod
-        return mod
-    source = subprocess.run(["git", "-C", str(ROOT), "show", f"{commit}:swarmactors/host.py"], check=True,
-                            capture_output=True, text=True).stdout
-    path = Path(tempfile.gettempdir()) / f"host_{commit[:12]}.py"
-    path.write_text(source)
-    spec = importlib.util.spec_from_file_location(f"host_{commit[:12]}", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+def unpack(commit: str) -> Path:
+    """The tree of ``commit``, unpacked once under the temporary directory."""
+    path = Path(tempfile.gettempdir()) / f"swarmactors-tree-{commit[:12]}"
+    if not path.exists():
+        path.mkdir()
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", commit], check=True, capture_output=True).stdout
+        subprocess.run(["tar", "-x", "-C", str(path)], input=archive, check=True)
+    return path
+
+
+def one_run(tree: Path, args) -> dict:
+    """One run of this script's ``--one`` mode on ``tree`` (its own host and wire format), in a fresh process."""
+    env = {**os.environ, "PYTHONPATH": f"{tree}:{tree / 'benchmarks'}", "PYTHONHASHSEED": "0"}
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--one", "--n", str(args.n), "--ticks", str(args.ticks)]
+    p = subprocess.run(cmd + (["--idle"] if args.idle else []), cwd=tree, env=env, capture_output=True, text=True,
+                       timeout=1800)
+    if p.returncode != 0:
+        raise RuntimeError(f"{tree}: {p.stderr[-2000:]}")
+    return json.loads(p.stdout.strip().splitlines()[-1])
 
 
 class _NoLink:
@@ -80,6 +86,7 @@ def build_inputs(n: int, ticks: int, idle: bool = False) -> tuple[list[bytes], l
     use = "idle_behavior:Idle" if idle else "beacon"
     descr = [RobotDescr(i, [*plain[i], 0.0], [{"use": use}], "ground", 0.75, 0.75, 1.0) for i in range(n)]
     out = []
+    columns = hasattr(Inputs, "from_rows")  # the inputs as columns (issue 21) or as one RobotIn per robot
     for t in range(ticks):
         body = pack([float(t - 1), b"\x00" * 8])
         table = [FrameIn(s, "BEACON", t, body, float(t - 1)) for s in range(n)] if t and not idle else []
@@ -88,7 +95,8 @@ def build_inputs(n: int, ticks: int, idle: bool = False) -> tuple[list[bytes], l
             ids = nbrs[i]
             flat = np.round(pos[ids], 6).ravel().tolist()
             rows.append(RobotIn(i, [*plain[i], 0.0], (ids, flat), list(ids) if table else []))
-        out.append(encode(Inputs(t, float(t), rows, table, {})))
+        msg = Inputs.from_rows(t, float(t), rows, table, {}) if columns else Inputs(t, float(t), rows, table, {})
+        out.append(encode(msg))
     return out, descr
 
 
@@ -99,15 +107,13 @@ def run_once(mod, inputs: list[bytes], descr: list[RobotDescr]) -> tuple[float, 
     host.run_info = RunInfo("lockstep", 1.0, 1, len(inputs), 10.0, 0)
     for dsc in descr:
         host._adopt(dsc)
-    deliveries = 0
+    deliveries = sum(len(r.inbox) for data in inputs for r in decode(data, DownlinkType, what="d").robots)
 
     async def steps() -> float:
-        nonlocal deliveries
         t0 = time.process_time()  # CPU time: the machine is shared, and this is one thread's work
         for data in inputs:
             msg = decode(data, DownlinkType, what="downlink")
             host.tick = msg.tick
-            deliveries += sum(len(r.inbox) for r in msg.robots)
             rows = await host._step_lockstep(msg)
             encode(Uplink(host.name, host.tick, rows))
         return time.process_time() - t0
@@ -120,32 +126,39 @@ def run_once(mod, inputs: list[bytes], descr: list[RobotDescr]) -> tuple[float, 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--base", default="e83c6c9", help="baseline commit (default: before issue 21's host changes)")
+    ap.add_argument("--base", default="0dc0e96", help="baseline commit (default: main before this session's work)")
     ap.add_argument("--n", type=int, default=1000)
     ap.add_argument("--ticks", type=int, default=30)
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--profile", action="store_true")
     ap.add_argument("--idle", action="store_true", help="robots that do nothing (no frames): the host's own cost")
+    ap.add_argument("--one", action="store_true", help=argparse.SUPPRESS)  # one run of the tree on PYTHONPATH
     ap.add_argument("--out", type=Path, default=None, help="write the runs as JSON here")
     args = ap.parse_args(argv)
-    inputs, descr = build_inputs(args.n, args.ticks, args.idle)
-    new = load_host(None)
-    if args.profile:
-        prof = cProfile.Profile()
-        prof.enable()
-        run_once(new, inputs, descr)
-        prof.disable()
-        pstats.Stats(prof).sort_stats("tottime").print_stats(20)
+    if args.one or args.profile:
+        import swarmactors.host as mod
+        inputs, descr = build_inputs(args.n, args.ticks, args.idle)
+        if args.profile:
+            prof = cProfile.Profile()
+            prof.enable()
+            run_once(mod, inputs, descr)
+            prof.disable()
+            pstats.Stats(prof).sort_stats("tottime").print_stats(20)
+            return 0
+        cpu, deliveries, reports = run_once(mod, inputs, descr)
+        print(json.dumps({"cpu_s": cpu, "deliveries": deliveries,
+                          "reports": hashlib.sha256(json.dumps(reports, sort_keys=True).encode()).hexdigest()}))
         return 0
-    base = load_host(args.base)
+    trees = {"base": unpack(args.base), "new": ROOT}
     times: dict[str, list[float]] = {"base": [], "new": []}
     reports = {}
     order = ["base", "new", "new", "base"]
     for i in range(args.repeats * 2):
         which = order[i % 4]
-        wall, deliveries, reps = run_once(base if which == "base" else new, inputs, descr)
-        times[which].append(wall)
-        reports[which] = reps
+        r = one_run(trees[which], args)
+        times[which].append(r["cpu_s"])
+        reports[which] = r["reports"]
+        deliveries = r["deliveries"]
     if reports["base"] != reports["new"]:
         print("the two hosts' robots reported differently", file=sys.stderr)
         return 1

@@ -1,9 +1,10 @@
 #!/usr/bin/env python
 """The world's tick: CPU per delivery of the world process, this tree against a baseline commit, and scale.
 
-    python benchmarks/world_tick.py ab [--base e83c6c9] [--new COMMIT] [--n 1000] [--repeats 5] [--out FILE]
+    python benchmarks/world_tick.py ab [--base e83c6c9] [--new COMMIT] [--n 1000] [--k 2] [--repeats 5] [--out FILE]
     python benchmarks/world_tick.py scale [--n 1000 10000] [--ticks 20] [--k 2] [--repeats 3] [--out FILE]
-    python benchmarks/world_tick.py stages [--n 1000] [--ticks 30]
+    python benchmarks/world_tick.py stages [--n 1000] [--ticks 30] [--base COMMIT --repeats 3]
+    python benchmarks/world_tick.py inproc [--base COMMIT] [--n 1000] [--k 2] [--ticks 30] [--repeats 5] [--profile]
 
 ``ab``: the lockstep beacon (every robot broadcasts one small frame per tick; grid spacing 1, range 1.5, so about
 8 neighbours each) with K = 2 host processes, so the world is alone in the measuring process. Each version runs
@@ -16,6 +17,13 @@ directory and shadows the installed package through PYTHONPATH.
 
 ``stages``: CPU time (of the world's thread) of the world's stages inside one K = 2 run (begin, the radio,
 deliveries, inputs, the trace record and hash), from wrappers installed in the world process.
+
+``inproc``: the same lockstep beacon with the world and K robot hosts in one process and no Zenoh: the world's
+downlinks go straight to its hosts' steps and their uplinks back (the bytes the real run sends, sealed and
+decoded the same way), so CPU time splits exactly between the world's Python work (its tick, encoding the
+inputs, decoding the uplinks) and the hosts' (decoding, stepping, encoding). Each run is a fresh process on
+this tree or the baseline's, interleaved; the trace hash must be the same as the real run's. ``--profile``
+prints a cProfile of this tree's world part.
 
 Nothing is asserted: numbers go to stdout and the JSON file, and by hand to docs/benchmarks.md.
 """
@@ -70,6 +78,90 @@ if __name__ == "__main__":
     main()
 """
 
+INPROC = r"""
+import asyncio, cProfile, json, pstats, sys, time
+from swarmactors.host import RobotHost
+from swarmactors.hosting import quiet_gc
+from swarmactors.scenario import resolve_scenario, world_spec
+from swarmactors.trace import TraceWriter
+from transport import Keys, seal, unseal
+from transport.messages import Downlink, JoinReply, JoinRequest, decode, encode
+from world import World
+
+class Link:
+    def __init__(self, on_put=None):
+        self.on_put = on_put
+    def publish(self, key, data, *, reliable=True):
+        if self.on_put is not None:
+            self.on_put(key, data)
+    def serve(self, *a, **k):
+        pass
+    subscribe = watch_liveliness = declare_token = serve
+
+class Query:
+    def __init__(self, key, payload):
+        self.key, self.payload, self.replies = key, payload, []
+    def reply(self, data):
+        self.replies.append(data)
+    def reply_error(self, message):
+        raise RuntimeError(message)
+
+def main():
+    n, ticks, k, profile = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3]), sys.argv[4] == "1"
+    raw = {"run": {"name": "wt", "seed": 1, "ticks": ticks, "trace": False}, "radio": {"range": 1.5},
+           "robots": [{"count": n, "placement": "grid", "spacing": 1.0,
+                       "behaviors": [{"use": "protocols.beacon.behavior:Beacon", "every": 1}]}]}
+    keys = Keys("wt")
+    hosts, spent = {}, {"host": 0.0}
+    loop = asyncio.new_event_loop()
+    def on_down(key, data):  # Zenoh's part: the downlink reaches its host, whose step's uplink reaches the world
+        host = hosts.get(key.rsplit("/", 1)[-1])
+        if host is not None:
+            loop.call_soon(lambda: asyncio.ensure_future(step(host, data)))
+    async def step(host, data):
+        t = time.process_time()
+        msg = decode(unseal(host.key, data, what="downlink"), Downlink, what="downlink")
+        if type(msg).__name__ != "Inputs":
+            return
+        host.tick = msg.tick
+        out = await host._step_lockstep(msg)
+        up = host._uplink(host.tick, out)
+        spent["host"] += time.process_time() - t
+        w._on_up_put(keys.up(host.name), up)
+    trace = TraceWriter(None, {}, mode="off")
+    w = World(world_spec(resolve_scenario(raw, "<bench>")), Link(on_down), keys, sinks=[trace])
+    per = -(-n // k)
+    for i in range(k):
+        q = Query(keys.join, encode(JoinRequest(min(per, n - i * per))))
+        w._on_join(q)
+        j = decode(q.replies[0], JoinReply, what="join reply")
+        h = RobotHost(Link(), keys)
+        h.name, h.key, h.run_info = j.host, j.key, j.run
+        for d in j.robots:
+            h._adopt(d)
+        hosts[h.name] = h
+        w._on_step_query(Query(keys.up(h.name), h._uplink(-1)))
+    w.started = True
+    prof = cProfile.Profile() if profile else None
+    with quiet_gc():  # as the world's and the hosts' processes do
+        t0 = time.process_time()
+        if prof:
+            prof.enable()
+        loop.run_until_complete(w.clock.run(w))
+        if prof:
+            prof.disable()
+        total = time.process_time() - t0
+    res = {"world_cpu": total - spent["host"], "host_cpu": spent["host"], "deliveries": w.counters.delivered,
+           "ticks": w.ticks_done, "hash": trace.trace_hash}
+    if prof:
+        st = pstats.Stats(prof, stream=sys.stderr)
+        st.sort_stats("tottime").print_stats(35)
+    print(json.dumps(res))
+
+if __name__ == "__main__":
+    main()
+"""
+
 
 def unpack(commit: str) -> Path:
     """The tree of ``commit``, unpacked once under the temporary directory."""
@@ -91,8 +183,8 @@ def measure(tree: Path, n: int, ticks: int, k: int = 2, stages: bool = False, tr
     return json.loads(p.stdout.strip().splitlines()[-1])
 
 
-def marginal(tree: Path, n: int, short: int, long: int) -> dict:
-    a, b = measure(tree, n, short), measure(tree, n, long)
+def marginal(tree: Path, n: int, short: int, long: int, k: int = 2) -> dict:
+    a, b = measure(tree, n, short, k), measure(tree, n, long, k)
     d = b["deliveries"] - a["deliveries"]
     return {"world_us": 1e6 * (b["world_cpu"] - a["world_cpu"]) / d, "deliveries": d, "hash": b["hash"],
             "robot_ticks_s": n * b["ticks"] / b["wall_s"]}
@@ -107,14 +199,15 @@ def ab(args) -> dict:
     runs: dict[str, list[dict]] = {"base": [], "new": []}
     for i in range(args.repeats):
         for name in (("base", "new") if i % 2 == 0 else ("new", "base")):
-            r = marginal(trees[name], args.n, args.short, args.long)
+            r = marginal(trees[name], args.n, args.short, args.long, args.k)
             r["load"] = loadavg()
             runs[name].append(r)
             print(f"{i} {name:4s} world {r['world_us']:.2f} us/delivery  {r['robot_ticks_s']:,.0f} robot-ticks/s"
                   f"  load {r['load']}", flush=True)
     med = {name: {k: statistics.median(r[k] for r in rs) for k in ("world_us", "robot_ticks_s")}
            for name, rs in runs.items()}
-    return {"base": args.base, "new": args.new or "working tree", "n": args.n, "ticks": [args.short, args.long],
+    return {"base": args.base, "new": args.new or "working tree", "n": args.n, "k": args.k,
+            "ticks": [args.short, args.long],
             "repeats": args.repeats,
             "median": med, "ratio_new_over_base": med["new"]["world_us"] / med["base"]["world_us"],
             "same_trace_hash": len({r["hash"] for rs in runs.values() for r in rs}) == 1, "runs": runs}
@@ -134,14 +227,64 @@ def scale(args) -> dict:
             "median_robot_ticks_s": {n: statistics.median(r["robot_ticks_s"] for r in rs) for n, rs in runs.items()}}
 
 
+def inproc_run(tree: Path, n: int, ticks: int, k: int, profile: bool = False) -> dict:
+    env = {**os.environ, "PYTHONPATH": str(tree), "PYTHONHASHSEED": "0"}
+    p = subprocess.run([sys.executable, "-c", INPROC, str(n), str(ticks), str(k), "1" if profile else "0"], cwd=tree,
+                       env=env, capture_output=True, text=True, timeout=1800)
+    if p.returncode != 0:
+        raise RuntimeError(f"{tree}: {p.stderr[-2000:]}")
+    if profile:
+        print(p.stderr)
+    return json.loads(p.stdout.strip().splitlines()[-1])
+
+
+def inproc(args) -> dict:
+    n = args.n[0]
+    if args.profile:
+        return inproc_run(ROOT, n, args.ticks, args.k, profile=True)
+    trees = {"base": unpack(args.base), "new": ROOT}
+    runs: dict[str, list[dict]] = {"base": [], "new": []}
+    for i in range(args.repeats):
+        for name in (("base", "new") if i % 2 == 0 else ("new", "base")):
+            r = inproc_run(trees[name], n, args.ticks, args.k)
+            r["world_us"] = 1e6 * r["world_cpu"] / r["deliveries"]
+            r["host_us_per_robot_tick"] = 1e6 * r["host_cpu"] / (n * r["ticks"])
+            r["load"] = loadavg()
+            runs[name].append(r)
+            print(f"{i} {name:4s} world {r['world_us']:.2f} us/delivery  hosts {r['host_us_per_robot_tick']:.2f} "
+                  f"us/robot-tick  load {r['load']}", flush=True)
+    med = {name: {key: statistics.median(r[key] for r in rs) for key in ("world_us", "host_us_per_robot_tick")}
+           for name, rs in runs.items()}
+    return {"base": args.base, "n": n, "k": args.k, "ticks": args.ticks, "repeats": args.repeats, "median": med,
+            "world_new_over_base": med["new"]["world_us"] / med["base"]["world_us"],
+            "hosts_new_over_base": med["new"]["host_us_per_robot_tick"] / med["base"]["host_us_per_robot_tick"],
+            "same_trace_hash": len({r["hash"] for rs in runs.values() for r in rs}) == 1, "runs": runs}
+
+
 def stages(args) -> dict:
-    r = measure(ROOT, args.n[0], args.ticks, 2, stages=True)
-    d = r["deliveries"]
-    for name, s in sorted(r["stages"].items(), key=lambda kv: -kv[1]):
-        print(f"{name:14s} {s:7.3f} s  {1e6 * s / d:6.2f} us/delivery")
-    print(f"world CPU {r['world_cpu']:.2f} s ({r['process_cpu']:.2f}) for {d} deliveries (whole run, start-up "
-          "included)")
-    return r
+    if not args.base:
+        r = measure(ROOT, args.n[0], args.ticks, 2, stages=True)
+        d = r["deliveries"]
+        for name, s in sorted(r["stages"].items(), key=lambda kv: -kv[1]):
+            print(f"{name:14s} {s:7.3f} s  {1e6 * s / d:6.2f} us/delivery")
+        print(f"world CPU {r['world_cpu']:.2f} s ({r['process_cpu']:.2f}) for {d} deliveries (whole run, start-up "
+              "included)")
+        return r
+    # --base: both trees, interleaved, --repeats runs each; the median of each stage (µs per delivery)
+    trees = {"base": unpack(args.base), "new": ROOT}
+    runs: dict[str, list[dict]] = {"base": [], "new": []}
+    for i in range(args.repeats):
+        for name in (("base", "new") if i % 2 == 0 else ("new", "base")):
+            r = measure(trees[name], args.n[0], args.ticks, 2, stages=True)
+            r["load"] = loadavg()
+            runs[name].append(r)
+    med = {name: {st: statistics.median(1e6 * r["stages"].get(st, 0.0) / r["deliveries"] for r in rs)
+                  for st in sorted({st for r in rs for st in r["stages"]})} for name, rs in runs.items()}
+    for st in sorted(set(med["base"]) | set(med["new"]), key=lambda st: -med["base"].get(st, 0.0)):
+        print(f"{st:14s} {med['base'].get(st, 0.0):6.2f} -> {med['new'].get(st, 0.0):6.2f} us/delivery")
+    loads = [r["load"] for rs in runs.values() for r in rs]
+    print(f"load {min(loads)}-{max(loads)}; same hash: {len({r['hash'] for rs in runs.values() for r in rs}) == 1}")
+    return {"base": args.base, "n": args.n[0], "ticks": args.ticks, "median_us_per_delivery": med, "runs": runs}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -154,6 +297,7 @@ def main(argv: list[str] | None = None) -> int:
     a.add_argument("--short", type=int, default=10)
     a.add_argument("--long", type=int, default=50)
     a.add_argument("--repeats", type=int, default=5)
+    a.add_argument("--k", type=int, default=2, help="host processes (0: robots in the world's process)")
     s = sub.add_parser("scale")
     s.add_argument("--n", type=int, nargs="+", default=[1000, 10000])
     s.add_argument("--ticks", type=int, default=20)
@@ -163,15 +307,24 @@ def main(argv: list[str] | None = None) -> int:
     g = sub.add_parser("stages")
     g.add_argument("--n", type=int, nargs=1, default=[1000])
     g.add_argument("--ticks", type=int, default=30)
-    for p in (a, s, g):
+    g.add_argument("--base", default=None, help="also run this commit's tree, interleaved, and compare")
+    g.add_argument("--repeats", type=int, default=3)
+    i = sub.add_parser("inproc")
+    i.add_argument("--base", default="0dc0e96")
+    i.add_argument("--n", type=int, nargs=1, default=[1000])
+    i.add_argument("--k", type=int, default=2)
+    i.add_argument("--ticks", type=int, default=30)
+    i.add_argument("--repeats", type=int, default=5)
+    i.add_argument("--profile", action="store_true", help="a cProfile of this tree's run (world and hosts)")
+    for p in (a, s, g, i):
         p.add_argument("--out", type=Path, default=None, help="JSON results")
     args = ap.parse_args(argv)
-    result = {"ab": ab, "scale": scale, "stages": stages}[args.what](args)
+    result = {"ab": ab, "scale": scale, "stages": stages, "inproc": inproc}[args.what](args)
     result["cpus"] = os.cpu_count()
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(json.dumps(result, indent=2))
-    if args.what != "stages":
+    if (args.what != "stages" or args.base) and not getattr(args, "profile", False):
         print(json.dumps({k: v for k, v in result.items() if k != "runs"}, indent=2))
     return 0
 

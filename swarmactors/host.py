@@ -462,11 +462,12 @@ class RobotHost:
         for descr in msg.new:
             self._adopt(descr)
 
-    def _set_inputs(self, robot: Robot, pose: list, now: float, objects: dict, known: list[str] | None,
+    def _set_inputs(self, robot: Robot, pose, now: float, objects: dict, known: list[str] | None,
                     rays: list[float] | None = None) -> None:
+        """A robot's inputs of a tick into its context; ``pose`` (a list or an array row) is copied."""
         ctx = robot.ctx
         ctx._rays = None if rays is None else tuple(rays)
-        ctx.pose = np.array(pose, dtype=float)
+        ctx.pose = pose.copy() if type(pose) is np.ndarray else np.array(pose, dtype=float)  # its own array
         ctx._set_time(self.tick, now)
         # each robot its own dict, with the objects it knows (an empty one left empty is kept)
         if objects:
@@ -521,31 +522,40 @@ class RobotHost:
     async def _step_lockstep(self, msg: Inputs) -> list[RobotOut]:
         self._take_membership(msg)
         now, objects = msg.now, msg.objects
+        cols = msg.columns()
+        poses, sptr, sids, sat, iptr, refs = (cols.poses, cols.sensed_ptr, cols.sensed_ids, cols.sensed_at,
+                                              cols.inbox_ptr, cols.refs)
+        known, rays, rab = msg.known, msg.rays, msg.rab
         frames = FrameTable(msg.frames)
-        dims = len(msg.robots[0].pose) - 1 if msg.robots else 2
+        dims = msg.dims
+        robots = self.robots
         pending: dict[asyncio.Task, Robot] = {}
         stepped: list[Robot] = []
-        for row in msg.robots:
-            robot = self.robots.get(row.id)
+        for i, rid in enumerate(cols.ids):
+            robot = robots.get(rid)
             if robot is None or not robot.alive:
                 if robot is not None and robot.error and not robot.error_sent:
                     stepped.append(robot)  # tell the world once why this robot is gone
                 continue
-            self._set_inputs(robot, row.pose, now, objects, row.objects, row.rays)
-            if row.rab is not None:  # each receiver's own range and bearing (frame.rab)
-                inbox = [frames.frame(k) for k in row.inbox]
-                inbox = [f if f is None else msgspec.structs.replace(f, rab=(row.rab[2 * j], row.rab[2 * j + 1]))
-                         for j, f in enumerate(inbox)]
+            self._set_inputs(robot, poses[i], now, objects, None if known is None else known[i],
+                             None if rays is None else rays[i])
+            a, b = iptr[i], iptr[i + 1]
+            if rab is not None and rab[i] is not None:  # each receiver's own range and bearing (frame.rab)
+                rb = rab[i]
+                inbox = [frames.frame(k) for k in refs[a:b]]
+                inbox = [f if f is None else _replace(f, rab=(rb[2 * j], rb[2 * j + 1])) for j, f in enumerate(inbox)]
                 if None in inbox:
                     robot.bad_bodies += inbox.count(None)
                     inbox = [f for f in inbox if f is not None]
-            elif row.inbox:
-                inbox, bad = frames.inbox(row.inbox)
-                robot.bad_bodies += bad
+            elif a < b:
+                inbox, bad = frames.inbox(refs[a:b])
+                if bad:
+                    robot.bad_bodies += bad
             else:
                 inbox = []
-            ids, flat = row.sensed
-            rest = run_calls(robot, robot.calls(inbox, SensedView(ids, flat, dims, robot.local)))
+            a, b = sptr[i], sptr[i + 1]
+            rest = run_calls(robot, robot.calls(inbox, SensedView(sids[a:b], sat[a * dims:b * dims], dims,
+                                                                  robot.local)))
             if rest is not None:
                 pending[asyncio.ensure_future(rest)] = robot
             stepped.append(robot)

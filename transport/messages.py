@@ -17,6 +17,7 @@ import math
 from typing import Annotated, Any, Literal
 
 import msgspec
+import numpy as np
 
 from transport.codec import MalformedMessage
 
@@ -141,8 +142,8 @@ class FrameIn(_Row):
     sent: float
 
 
-class RobotIn(_Row):
-    """One robot's inputs of a tick.
+class RobotIn(msgspec.Struct):
+    """One robot's inputs of a tick, as ``Inputs.robots`` reads them (a view, not a wire message).
 
     Its pose, the robots it senses (ids and their positions, flattened), its inbox (indices into the host's
     frame table) and the names of the objects it knows (None: all of them).
@@ -157,21 +158,154 @@ class RobotIn(_Row):
     rab: list[float] | None = None  # (range, bearing) of each inbox frame, flattened (frame.rab)
 
 
-class Inputs(msgspec.Struct, tag="in", forbid_unknown_fields=True, omit_defaults=True):
-    """A tick's inputs for one host.
+# The numeric columns of ``Inputs``: little-endian, whatever the machine (hosts may run on other machines). Robot
+# ids fit int32: a scenario may ask for at most 1,000,000 robots (swarmactors/scenario.py, MAX_ROBOTS_LIMIT).
+F64 = np.dtype("<f8")
+I32 = np.dtype("<i4")
 
-    Each frame body travels once per host (``frames``), however many of its robots receive it.
+
+class Columns(msgspec.Struct):
+    """An ``Inputs`` message's columns, checked and decoded (``Inputs.columns``); robot i is row i.
+
+    ``ids``, ``sensed_ptr``, ``sensed_ids``, ``sensed_at``, ``inbox_ptr`` and ``refs`` are Python lists (what a
+    robot is handed is made of Python numbers); ``poses`` is an (n, dims + 1) float array. Robot i senses
+    ``sensed_ids[sensed_ptr[i]:sensed_ptr[i + 1]]`` at the ``dims`` numbers each of the same rows of
+    ``sensed_at`` (flat) and receives ``frames[refs[k]]`` for k in ``inbox_ptr[i]:inbox_ptr[i + 1]``.
+    """
+
+    ids: list[int]
+    poses: np.ndarray
+    sensed_ptr: list[int]
+    sensed_ids: list[int]
+    sensed_at: list[float]
+    inbox_ptr: list[int]
+    refs: list[int]
+
+
+def _column(data: bytes, dtype: np.dtype, name: str) -> np.ndarray:
+    if len(data) % dtype.itemsize:
+        raise ValueError(f"{name}: {len(data)} bytes is not a whole number of {dtype.itemsize}-byte items")
+    return np.frombuffer(data, dtype=dtype)
+
+
+def _offsets(data: bytes, n: int, total: int, name: str) -> np.ndarray:
+    """Offsets (n + 1 of them, from 0, never decreasing, to ``total``) into a column; empty bytes: all 0."""
+    if not data:
+        if total:
+            raise ValueError(f"{name}: no offsets for {total} items")
+        return np.zeros(n + 1, dtype=I32)
+    ptr = _column(data, I32, name)
+    if len(ptr) != n + 1 or ptr[0] != 0 or ptr[-1] != total or (n and (np.diff(ptr) < 0).any()):
+        raise ValueError(f"{name}: not {n + 1} non-decreasing offsets from 0 to {total}")
+    return ptr
+
+
+class Inputs(msgspec.Struct, tag="in", forbid_unknown_fields=True, omit_defaults=True, dict=True):
+    """A tick's inputs for one host, as columns (one row per robot, in ``ids`` order).
+
+    ``ids`` are the robots; ``poses`` (float64) one row of ``dims`` + 1 numbers per robot (position, heading);
+    ``sensed`` (offsets into ``sensed_ids``) and ``sensed_ids`` the robots each senses, with ``dims`` numbers each
+    in ``sensed_at`` (float64); ``inbox`` (offsets into ``refs``) and ``refs`` (indices into ``frames``) each
+    robot's inbox in delivery order. Integers are int32, every number little-endian. Each frame
+    body travels once per host (``frames``), however many of its robots receive it. ``known`` (the object names
+    each robot knows; None: every robot knows every object), ``rays`` and ``rab`` are per robot when present.
     ``dead`` and ``new`` change the host's robots; ``epoch`` is the realtime clock's start (wall time).
+
+    Decoding checks that the columns fit together (lengths, offsets, references), so a host never indexes
+    out of them; ``columns()`` gives them decoded and ``robots`` as one ``RobotIn`` per robot.
     """
 
     tick: int = msgspec.field(name="t")
     now: float = 0.0
-    robots: list[RobotIn] = msgspec.field(name="r", default_factory=list)
+    dims: Annotated[int, msgspec.Meta(ge=1, le=3)] = 2
+    ids: bytes = b""
+    poses: bytes = b""
+    sensed: bytes = b""
+    sensed_ids: bytes = msgspec.field(name="si", default=b"")
+    sensed_at: bytes = msgspec.field(name="sx", default=b"")
+    inbox: bytes = b""
+    refs: bytes = b""
     frames: list[FrameIn] = msgspec.field(default_factory=list)
+    known: list[list[str] | None] | None = None
+    rays: list[list[float] | None] | None = None
+    rab: list[list[float] | None] | None = None
     objects: dict[str, list[float]] = msgspec.field(default_factory=dict)
     epoch: float | None = None
     dead: list[int] = msgspec.field(default_factory=list)
     new: list[RobotDescr] = msgspec.field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        ids = _column(self.ids, I32, "ids")
+        n = len(ids)
+        if n and ids.min() < 0:
+            raise ValueError("ids: a negative robot id")
+        w = self.dims + 1
+        poses = _column(self.poses, F64, "poses")
+        if len(poses) != n * w:
+            raise ValueError(f"poses: {len(poses)} numbers for {n} robots of {w}")
+        sids = _column(self.sensed_ids, I32, "si")
+        sat = _column(self.sensed_at, F64, "sx")
+        if len(sat) != len(sids) * self.dims:
+            raise ValueError(f"sx: {len(sat)} numbers for {len(sids)} sensed robots of {self.dims}")
+        sptr = _offsets(self.sensed, n, len(sids), "sensed")
+        refs = _column(self.refs, I32, "refs")
+        iptr = _offsets(self.inbox, n, len(refs), "inbox")
+        if len(refs) and (refs.min() < 0 or refs.max() >= len(self.frames)):
+            raise ValueError(f"refs: an index outside the {len(self.frames)} frames")
+        for name in ("known", "rays", "rab"):
+            col = getattr(self, name)
+            if col is not None and len(col) != n:
+                raise ValueError(f"{name}: {len(col)} rows for {n} robots")
+        if self.rab is not None:
+            counts = np.diff(iptr).tolist()
+            for k, (row, c) in enumerate(zip(self.rab, counts, strict=True)):
+                if row is not None and len(row) != 2 * c:
+                    raise ValueError(f"rab[{k}]: {len(row)} numbers for {c} frames")
+        self.__dict__["_cols"] = (ids, poses.reshape(n, w), sptr, sids, sat, iptr, refs)
+
+    def columns(self) -> Columns:
+        """The columns, decoded (Python lists, and the poses as an array)."""
+        cols = self.__dict__.get("_decoded")
+        if cols is None:
+            ids, poses, sptr, sids, sat, iptr, refs = self.__dict__["_cols"]
+            cols = self.__dict__["_decoded"] = Columns(ids.tolist(), poses, sptr.tolist(), sids.tolist(),
+                                                       sat.tolist(), iptr.tolist(), refs.tolist())
+        return cols
+
+    @property
+    def robots(self) -> list[RobotIn]:
+        """One ``RobotIn`` per robot (built once, on first use)."""
+        rows = self.__dict__.get("_robots")
+        if rows is None:
+            c, d = self.columns(), self.dims
+            poses = c.poses.tolist()
+            sp, ip = c.sensed_ptr, c.inbox_ptr
+            rows = [RobotIn(rid, poses[i], (c.sensed_ids[sp[i]:sp[i + 1]], c.sensed_at[sp[i] * d:sp[i + 1] * d]),
+                            c.refs[ip[i]:ip[i + 1]], None if self.known is None else self.known[i],
+                            None if self.rays is None else self.rays[i], None if self.rab is None else self.rab[i])
+                    for i, rid in enumerate(c.ids)]
+            self.__dict__["_robots"] = rows
+        return rows
+
+    @classmethod
+    def from_rows(cls, tick: int, now: float, rows: list[RobotIn], frames: list[FrameIn] = (),
+                  objects: dict | None = None, dims: int | None = None, **more: Any) -> Inputs:
+        """The message for robots given row by row (tests and benchmarks; the world builds the columns)."""
+        if dims is None:
+            dims = len(rows[0].pose) - 1 if rows else 2
+        sn = [len(r.sensed[0]) for r in rows]
+        bn = [len(r.inbox) for r in rows]
+        opt = {name: [getattr(r, attr) for r in rows] if any(getattr(r, attr) is not None for r in rows) else None
+               for name, attr in (("known", "objects"), ("rays", "rays"), ("rab", "rab"))}
+        return cls(tick, now, dims,
+                   ids=np.array([r.id for r in rows], dtype=I32).tobytes(),
+                   poses=np.array([r.pose for r in rows], dtype=F64).tobytes(),
+                   sensed=np.concatenate([[0], np.cumsum(sn)]).astype(I32).tobytes() if sum(sn) else b"",
+                   sensed_ids=np.array([i for r in rows for i in r.sensed[0]], dtype=I32).tobytes(),
+                   sensed_at=np.array([v for r in rows for v in r.sensed[1]], dtype=F64).tobytes(),
+                   inbox=np.concatenate([[0], np.cumsum(bn)]).astype(I32).tobytes() if sum(bn) else b"",
+                   refs=np.array([k for r in rows for k in r.inbox], dtype=I32).tobytes(),
+                   frames=list(frames), objects=dict(objects or {}), **opt, **more)
 
 
 class Delivery(_Row):

@@ -24,6 +24,37 @@ MALFORMED_EXAMPLES = 100  # reasons kept for result.json (every one is counted)
 SAMPLES_PER_TICK = 20  # reasons kept in a tick's trace record and logged, per cause (every one is counted)
 
 
+class PerRobot:
+    """A count per robot id: a growing int64 array that reads like a dict of counts (``get``, ``[]``)."""
+
+    __slots__ = ("counts",)
+
+    def __init__(self) -> None:
+        self.counts = np.zeros(0, dtype=np.int64)
+
+    def _fit(self, n: int) -> None:
+        if n > len(self.counts):
+            self.counts = np.concatenate([self.counts, np.zeros(max(n, 2 * len(self.counts)) - len(self.counts),
+                                                                dtype=np.int64)])
+
+    def add(self, ids: np.ndarray) -> None:
+        """One more for every entry of ``ids`` (robot ids)."""
+        if len(ids):
+            c = np.bincount(ids)
+            self._fit(len(c))
+            self.counts[: len(c)] += c
+
+    def get(self, rid: int, default: int = 0) -> int:
+        return int(self.counts[rid]) if 0 <= rid < len(self.counts) else default
+
+    def __getitem__(self, rid: int) -> int:
+        return self.get(rid)
+
+    def __setitem__(self, rid: int, value: int) -> None:
+        self._fit(rid + 1)
+        self.counts[rid] = value
+
+
 @dataclass
 class Counters:
     """Frames sent, delivered, overheard and dropped (by cause), in total and per robot.
@@ -36,9 +67,9 @@ class Counters:
     delivered: int = 0
     overheard: int = 0
     dropped: dict[str, int] = field(default_factory=lambda: dict.fromkeys(DROP_CAUSES, 0))
-    sent_by: dict[int, int] = field(default_factory=lambda: defaultdict(int))
-    received_by: dict[int, int] = field(default_factory=lambda: defaultdict(int))
-    overheard_by: dict[int, int] = field(default_factory=lambda: defaultdict(int))
+    sent_by: PerRobot = field(default_factory=PerRobot)
+    received_by: PerRobot = field(default_factory=PerRobot)
+    overheard_by: PerRobot = field(default_factory=PerRobot)
     dropped_by: dict[int, dict[str, int]] = field(default_factory=lambda: defaultdict(lambda: defaultdict(int)))
     malformed: list[str] = field(default_factory=list)  # first reasons, for the result
     refused: dict[str, int] = field(default_factory=lambda: defaultdict(int))  # refused requests by named cause
@@ -53,12 +84,6 @@ class Counters:
         keys, counts = np.unique(np.column_stack([src, cause]), axis=0, return_counts=True)
         for (s, c), k in zip(keys.tolist(), counts.tolist(), strict=True):
             self.drop(s, DROP_CAUSES[c], k)
-
-    def add_to(self, table: dict[int, int], ids: np.ndarray) -> None:
-        """``table[i] += 1`` for every entry i of ``ids``."""
-        keys, counts = np.unique(ids, return_counts=True)
-        for i, k in zip(keys.tolist(), counts.tolist(), strict=True):
-            table[i] += k
 
     def as_dict(self) -> dict:
         return {
@@ -137,7 +162,7 @@ class TickRecord:
         c = self.counters
         c.sent += len(frames)
         rows = [[f.src, f.seq, f.kind, f.dst, len(f.body)] for f in frames]
-        c.add_to(c.sent_by, np.fromiter((row[0] for row in rows), np.int64, len(rows)))
+        c.sent_by.add(np.fromiter((row[0] for row in rows), np.int64, len(rows)))
         self.rec.setdefault("sent", []).extend(rows)
 
     def dropped(self, drops: list) -> None:
@@ -170,9 +195,9 @@ class TickRecord:
             self.counters.overheard += len(src)
             self._rows("ovh", self.counters.overheard_by, src, seq, dst, sent_tick)
 
-    def _rows(self, key: str, per_robot: dict, src, seq, dst, sent_tick) -> None:
+    def _rows(self, key: str, per_robot: PerRobot, src, seq, dst, sent_tick) -> None:
         """Append ``[src, seq, dst, sent_tick]`` rows to the record's list ``key``; count them per receiver."""
-        self.counters.add_to(per_robot, dst)
+        per_robot.add(dst)
         rows = IntRows(np.column_stack([src, seq, dst, sent_tick]))  # packs like the list of rows (transport/rows.py)
         have = self.rec.get(key)
         if have:

@@ -45,6 +45,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import msgspec
 import numpy as np
 
 from transport.messages import DROP_CAUSES
@@ -87,9 +88,8 @@ class RadioConfig:
         return self.latency_s if self.latency_min_s is None else self.latency_min_s
 
 
-@dataclass(slots=True)
-class Outgoing:
-    """One frame as the world sees it: header plus opaque body bytes."""
+class Outgoing(msgspec.Struct):
+    """One frame as the world sees it: header plus opaque body bytes (a Struct: made once per frame sent)."""
 
     src: int
     dst: int | None

@@ -40,12 +40,14 @@ def accept(host: str, rows: list[RobotOut], owned: set[int], alive: np.ndarray, 
     out = Accepted()
     n = len(alive)
     gone: set[int] = set()
+    is_alive = alive.tolist()
+    take = out.frames.append
     for row in rows:
         rid = row.id
         if rid not in owned:
             out.refused.append((rid if rid < n else None, f"host {host} sent for robot {rid}, which it does not run"))
             continue
-        if not alive[rid] or rid in gone:
+        if not is_alive[rid] or rid in gone:
             continue
         if row.error is not None:
             cause = ("watchdog" if row.error.startswith("watchdog")
@@ -53,8 +55,8 @@ def accept(host: str, rows: list[RobotOut], owned: set[int], alive: np.ndarray, 
             out.crashes.append((rid, cause, row.error))
             gone.add(rid)
             continue
-        if row.velocity is not None:
-            vel = row.velocity
+        vel = row.velocity
+        if vel is not None:
             problem = velocity_problem(vel, dims)
             if problem is None:
                 v = np.zeros(dims)
@@ -66,11 +68,14 @@ def accept(host: str, rows: list[RobotOut], owned: set[int], alive: np.ndarray, 
                 continue
         if row.status:
             out.statuses.append((rid, row.status))
-        for f in row.frames:
-            if f.seq <= last_seq.get(rid, -1):
-                out.refused.append((rid, f"bad frame header from robot {rid}: dst={f.dst!r} kind={f.kind!r} "
-                                         f"seq={f.seq!r} (not after {last_seq.get(rid, -1)})"))
-                continue
-            last_seq[rid] = f.seq
-            out.frames.append(Outgoing(rid, f.dst, f.kind, f.seq, f.body, tuple(f.exclude), f.at))
+        if row.frames:
+            last = last_seq.get(rid, -1)
+            for f in row.frames:
+                if f.seq <= last:
+                    out.refused.append((rid, f"bad frame header from robot {rid}: dst={f.dst!r} kind={f.kind!r} "
+                                             f"seq={f.seq!r} (not after {last})"))
+                    continue
+                last = f.seq
+                take(Outgoing(rid, f.dst, f.kind, f.seq, f.body, tuple(f.exclude) if f.exclude else (), f.at))
+            last_seq[rid] = last
     return out

@@ -28,7 +28,7 @@ import logging
 import time
 from collections import defaultdict
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 
@@ -36,6 +36,8 @@ from transport import Keys, Link, MalformedMessage, PendingQuery, host_loss_s, n
 from transport.auth import verifies
 from transport.messages import (
     CLOCK_COMMANDS,
+    F64,
+    I32,
     MAX_PER_REQUEST,
     MAX_ROBOTS,
     PROTOCOL_VERSION,
@@ -48,7 +50,6 @@ from transport.messages import (
     JoinReply,
     JoinRequest,
     RobotDescr,
-    RobotIn,
     RunInfo,
     State,
     Stop,
@@ -64,17 +65,29 @@ from world.faults import REQUEST_CAP, ROBOT_CAP, Faults
 from world.kinematics import MAX_COORD, bad_positions, integrate
 from world.radio import Decision, Medium, Outgoing, RadioConfig
 from world.registry import HostEntry, Robots
-from world.sensing import Reach, reach, sense_table
+from world.sensing import Reach, Sensed, gather, reach, sense_arrays
 from world.situated import Situated
 from world.space import SpaceRules
 from world.uplink import COUNTED_CRASHES, INVALID_POSITION, accept
 
 log = logging.getLogger(__name__)
 
-_NOTHING: tuple = ([], [])
 POS_DIGITS = 6  # positions in traces, state and hashes are rounded to 1e-6 length units
 INTERRUPT_REPORTS_S = 5.0  # an interrupted run waits at most this long for its hosts' final reports
 MAX_BACKDATE_S = 0.05  # realtime: a frame's latency runs from at most this long before the world received it
+
+
+class Due(NamedTuple):
+    """A lockstep tick's deliveries, ordered by (receiver, src, seq).
+
+    For each: the receiver, its frame (an index into ``frames``, the (frame, send tick) pairs), sender and seq.
+    """
+
+    dst: np.ndarray
+    ref: np.ndarray
+    src: np.ndarray
+    seq: np.ndarray
+    frames: list[tuple[Outgoing, int]]
 
 
 class Sink(Protocol):
@@ -159,8 +172,8 @@ class World:
             self.clock.on_due = self._rt_deliver
         # this tick's reach (world/sensing.py) and sensing
         self._reach: Reach = reach(np.zeros((0, self.dims)), np.zeros(0, dtype=np.int64), np.zeros(0))
-        self._sensed: dict[int, tuple] = {}
-        self._poses: list[list[float]] = []
+        self._sensed = Sensed(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, self.dims)))
+        self._poses = np.zeros((0, self.dims + 1))  # each robot's pose row (position, heading), rounded
         self._known: dict[int, list[str]] | None = None  # objects each robot knows this tick (None: all)
         self._hidden: np.ndarray | None = None  # links of ``_reach`` an obstacle blocks (None: none)
         self._rays: dict[int, list[float]] = {}  # robot -> obstacle range-ray distances
@@ -222,18 +235,19 @@ class World:
         r = self.robots
         self._reach = reach(r.pos, alive, r.range)
         sensed_ids = self._reach if np.array_equal(r.sensing, r.range) else reach(r.pos, alive, r.sensing)
-        self._sensed = sense_table(r.pos, sensed_ids, alive, r.noise, self.seed, self.tick, POS_DIGITS)
+        self._sensed = sense_arrays(r.pos, sensed_ids, r.noise, self.seed, self.tick, POS_DIGITS)
         self._hidden = self.space.hidden_pairs(r.pos, self._reach) if self.space is not None else None
         self._rays = (self.space.rays(r.pos, r.heading, r.sensing, r.rays, alive)
                       if self.space is not None and r.rays.any() else {})
         if self.space is not None and r.body.any():
             for episode in self.space.collisions(self.tick, r.pos, r):
                 self.record.event(self.tick, episode)
-        self._poses = np.round(np.hstack([r.pos, r.heading[:, None]]), POS_DIGITS).tolist()
+        self._poses = np.round(np.hstack([r.pos, r.heading[:, None]]), POS_DIGITS)
         self.situated.sync(r.spec)
         if self.situated.active:  # situated sensing (world/situated.py): own frames, closest points
-            self._sensed = self.situated.sense(r.pos, r.heading, alive, r.sensing, r.noise,
-                                               sensed_ids.as_dict(alive), self._sensed, self.tick, POS_DIGITS)
+            rows = self.situated.sense(r.pos, r.heading, alive, r.sensing, r.noise, sensed_ids.as_dict(alive),
+                                       self._sensed.as_dict(alive), self.tick, POS_DIGITS)
+            self._sensed = Sensed.from_dict(len(r.pos), self.dims, rows)
             self.situated.own_poses(self._poses, r.pos, r.heading, POS_DIGITS)
         self._known = self._known_objects()
 
@@ -243,14 +257,14 @@ class World:
             for host in self._live_hosts():
                 self.link.publish(self.keys.down(host), self._down(host, self._inputs_for(host, None)))
             return
-        inbox = self._deliver_due(self.tick)
+        due = self._deliver_due(self.tick)
         self._awaited_tick = self.tick
         self._all_stepped.clear()
         for host in self._live_hosts():
             # a host that joined since the last tick may not have sent its registration yet: it gets
             # inputs from the tick after its registration arrives (_all_in counts a registration as in)
             if self._held.pop(host, None) is not None:
-                self.link.publish(self.keys.down(host), self._down(host, self._inputs_for(host, inbox)))
+                self.link.publish(self.keys.down(host), self._down(host, self._inputs_for(host, due)))
         await self._await_steps()
         for host in sorted(self._live_hosts()):
             t, msg = self._held.get(host, (None, None))
@@ -265,7 +279,7 @@ class World:
         rec = self.record.take()
         for sink in self.sinks:
             sink.record(rec)
-        if self.state_every and self.tick % self.state_every == 0:
+        if self.state_every and self.tick % self.state_every == 0 and self._state_watched():
             state = State(self.tick, rec["pos"], {int(r): self.robots.status[r] for r in alive},
                           self.robots.range[alive].round(POS_DIGITS).tolist(), self.objects,
                           dict(self.counters.dropped), self.counters.sent)
@@ -286,31 +300,44 @@ class World:
             self.counters.refused[INVALID_POSITION] += 1
             self.faults.crash(rid, self.tick, INVALID_POSITION, f"position {where!r} beyond the world's limit")
 
-    def _inputs_for(self, host: str, inbox: dict[int, list] | None) -> Inputs:
-        """Step 3: one host's inputs for this tick (each frame body once per host)."""
+    def _state_watched(self) -> bool:
+        """Whether an observer subscribes to ``state`` (a snapshot nobody reads is not built)."""
+        subscribed = getattr(self.link, "subscribed", None)
+        return subscribed is None or subscribed(self.keys.state)
+
+    def _inputs_for(self, host: str, due: Due | None) -> Inputs:
+        """Step 3: one host's inputs for this tick, as columns (each frame body once per host).
+
+        Its alive robots in id order; each one's pose, what it senses and its inbox are rows of this tick's
+        tables (``begin``, ``_deliver_due``), taken for the host's robots with a few array operations.
+        """
         entry = self.hosts[host]
-        rows: list[RobotIn] = []
-        table: list[FrameIn] = []
-        index: dict[int, int] = {}
-        poses = self._poses
+        ids = np.fromiter(entry.robots, dtype=np.int64, count=len(entry.robots))
+        ids.sort()
+        ids = ids[self.robots.alive[ids]]
+        sptr, sk = self._sensed.rows(ids)
+        frames: list[FrameIn] = []
+        inbox = refs = b""
+        rab = None
+        if due is not None and len(ids):
+            iptr, dk = gather(np.searchsorted(due.dst, ids, "left"), np.searchsorted(due.dst, ids, "right"))
+            if len(dk):
+                used, local = np.unique(due.ref[dk], return_inverse=True)
+                pairs = due.frames
+                for k in used.tolist():
+                    f, sent_tick = pairs[k]
+                    frames.append(FrameIn(f.src, f.kind, f.seq, f.body, sent_tick))
+                inbox, refs = iptr.astype(I32).tobytes(), local.astype(I32).tobytes()
+                if self.situated.rab:
+                    rab = self._rab_rows(ids, iptr, due.src[dk], due.seq[dk])
         known = self._known
-        for rid in sorted(entry.robots):
-            if not self.robots.alive[rid]:
-                continue
-            refs = []
-            rab = [] if self.situated.rab and self.situated.wants_rab(rid) else None
-            for f, sent_tick in (inbox.get(rid, ()) if inbox is not None else ()):
-                k = index.get(id(f))
-                if k is None:
-                    k = index[id(f)] = len(table)
-                    table.append(FrameIn(f.src, f.kind, f.seq, f.body, sent_tick))
-                refs.append(k)
-                if rab is not None:
-                    rab.extend(self.situated.take_rab(f.src, f.seq, rid))
-            rows.append(RobotIn(rid, poses[rid], self._sensed.get(rid, _NOTHING), refs,
-                                None if known is None else known.get(rid, []), self._rays.get(rid),
-                                rab or None))
-        msg = Inputs(self.tick, self.clock.now(), rows, table, self.objects)
+        rays = self._rays
+        msg = Inputs(self.tick, self.clock.now(), self.dims, ids.astype(I32).tobytes(),
+                     self._poses[ids].astype(F64).tobytes(),
+                     sptr.astype(I32).tobytes() if len(sk) else b"", self._sensed.ids[sk].astype(I32).tobytes(),
+                     self._sensed.at[sk].astype(F64).tobytes(), inbox, refs, frames,
+                     None if known is None else [known.get(rid, []) for rid in ids.tolist()],
+                     [rays.get(rid) for rid in ids.tolist()] if rays else None, rab, self.objects)
         if not self.lockstep:
             msg.epoch = self.clock.epoch
         if entry.pending_dead:
@@ -318,6 +345,18 @@ class World:
         if entry.pending_new:
             msg.new, entry.pending_new = entry.pending_new, []
         return msg
+
+    def _rab_rows(self, ids: np.ndarray, iptr: np.ndarray, src: np.ndarray, seq: np.ndarray) -> list | None:
+        """frame.rab: each robot's (range, bearing) of its inbox frames, flattened (None: it wants none, or none)."""
+        rows: list[list[float] | None] = []
+        src_l, seq_l, ptr = src.tolist(), seq.tolist(), iptr.tolist()
+        for i, rid in enumerate(ids.tolist()):
+            row: list[float] = []
+            if self.situated.wants_rab(rid):
+                for k in range(ptr[i], ptr[i + 1]):
+                    row.extend(self.situated.take_rab(src_l[k], seq_l[k], rid))
+            rows.append(row or None)
+        return rows if any(r is not None for r in rows) else None
 
     def _known_objects(self) -> dict[int, list[str]] | None:
         """Which objects each robot knows (None: every robot knows every object, the default).
@@ -587,8 +626,8 @@ class World:
             fr, dst, heard = out.frame[ok].tolist(), out.dst[ok].tolist(), out.overheard[ok].tolist()
             self._schedule_realtime([(d, frames[k], h) for d, k, h in zip(dst, fr, heard, strict=True)])
 
-    def _deliver_due(self, tick: int) -> dict[int, list]:
-        """Lockstep: each robot's inbox of tick ``tick`` as (frame, send tick), ordered by (src, seq).
+    def _deliver_due(self, tick: int) -> Due | None:
+        """Lockstep: the deliveries of tick ``tick``, ordered by (receiver, src, seq), as arrays (``Due``).
 
         The tick's deliveries are put in (dst, src, seq) order with one sort; the trace records them in that
         order; those whose receiver died meanwhile are dropped as ``dead``. Overheard copies (world/radio.py)
@@ -596,13 +635,13 @@ class World:
         """
         batches = self._due.pop(tick, [])
         if not batches:
-            return {}
-        entries: list[tuple[Outgoing, int]] = []  # (frame, send tick), one per frame, shared by its receivers
+            return None
+        frames: list[tuple[Outgoing, int]] = []  # (frame, send tick), one per frame, shared by its receivers
         parts = []
         for fs, out, sent_tick in batches:
-            parts.append((out.dst, out.src[out.frame], out.seq[out.frame], out.frame + len(entries),
+            parts.append((out.dst, out.src[out.frame], out.seq[out.frame], out.frame + len(frames),
                           np.full(len(out.frame), sent_tick, dtype=np.int64), out.overheard))
-            entries.extend([(f, sent_tick) for f in fs])
+            frames.extend([(f, sent_tick) for f in fs])
         dst, src, seq, ref, sent, heard = (np.concatenate(col) for col in zip(*parts, strict=True))
         order = np.lexsort((seq, src, dst))
         dst, src, seq, ref, sent, heard = dst[order], src[order], seq[order], ref[order], sent[order], heard[order]
@@ -617,14 +656,8 @@ class World:
             dst, src, seq, ref, sent = dst[keep], src[keep], seq[keep], ref[keep], sent[keep]
         self.record.delivered_arrays(src, seq, dst, sent)
         if not len(dst):
-            return {}
-        table = np.empty(len(entries), dtype=object)
-        for k, entry in enumerate(entries):  # element by element: numpy would unpack the pairs
-            table[k] = entry
-        items = table[ref].tolist()
-        bounds = np.flatnonzero(np.r_[True, dst[1:] != dst[:-1], True]).tolist()
-        ids = dst[bounds[:-1]].tolist()
-        return {rid: items[a:b] for rid, a, b in zip(ids, bounds[:-1], bounds[1:], strict=True)}
+            return None
+        return Due(dst, ref, src, seq, frames)
 
     def _schedule_realtime(self, copies: list[tuple[int, Outgoing, bool]]) -> None:
         """Realtime: each copy ``(receiver, frame, overheard)`` is due when its drawn latency has elapsed.

@@ -220,6 +220,20 @@ def test_rows_packed_from_arrays_are_msgpacks_own_bytes(rows, extra):
     assert IntRows(array) == rows and len(IntRows(array)) == len(rows)
 
 
+_EDGES = [0, 1, 31, 127, 128, 200, 255, 256, 999, 65_535, 65_536, 2**31, 2**32 - 1]
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(min_value=1, max_value=6).flatmap(lambda w: st.lists(
+    st.lists(st.one_of(st.sampled_from(_EDGES), st.integers(min_value=0, max_value=2**32 - 1)),
+             min_size=w, max_size=w), max_size=40)))
+def test_non_negative_rows_take_the_word_path_and_pack_the_same(rows):
+    """Values in [0, 2**32) (every trace row of a run) are packed as words of 4 or 8 bytes, then compressed."""
+    width = len(rows[0]) if rows else 4
+    array = np.array(rows, dtype=np.int64).reshape(-1, width)
+    assert packb(array) == msgpack.packb(rows, use_bin_type=True)
+
+
 @settings(max_examples=200, deadline=None)
 @given(st.integers(min_value=2, max_value=30).flatmap(lambda n: st.tuples(
     st.just(n),

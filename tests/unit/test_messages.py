@@ -68,8 +68,8 @@ def test_bad_uplinks_are_refused_naming_the_field(bad, field):
 
 
 def test_downlink_is_one_of_inputs_deliveries_stop_ack():
-    inputs = Inputs(4, 4.0, [RobotIn(1, [0.0, 0.0, 0.0], ([2], [1.0, 0.0]), [0], None)],
-                    [FrameIn(2, "K", 1, b"\x00", 3.0)], {"target": [1.0, 1.0]})
+    inputs = Inputs.from_rows(4, 4.0, [RobotIn(1, [0.0, 0.0, 0.0], ([2], [1.0, 0.0]), [0], None)],
+                              [FrameIn(2, "K", 1, b"\x00", 3.0)], {"target": [1.0, 1.0]})
     for msg in (inputs, Deliveries([Delivery(1, 2, "K", 1, b"\x00", 0.5)]), Stop(4, gone=True), Ack(1.5)):
         assert decode(encode(msg), Downlink, what="downlink") == msg
     with pytest.raises(MalformedMessage):
@@ -135,3 +135,42 @@ def test_malformed_count_reads_the_overflow_entry():
     assert malformed_count([]) == 0
     assert malformed_count(["a", "b"]) == 2
     assert malformed_count(["a", "b", f"{MORE_MALFORMED} 298"]) == 300
+
+
+ROWS = [RobotIn(3, [0.5, 1.0, 0.1], ([4, 7], [1.0, 2.0, 3.0, 4.0]), [1, 0, 1], ["target"], [0.5, 0.25], None),
+        RobotIn(4, [1.5, 2.0, -0.1], ([], []), [], [], None, None),
+        RobotIn(9, [2.5, 3.0, 3.1], ([3], [0.5, 1.0]), [0], None, None, [1.0, 0.5])]
+FRAMES = [FrameIn(7, "K", 1, b"\x01", 3.0), FrameIn(4, "N", 2, b"\x02", 3.0)]
+
+
+def test_inputs_columns_round_trip_to_the_same_rows():
+    msg = Inputs.from_rows(6, 6.0, ROWS, FRAMES, {"target": [1.0, 1.0]})
+    got = decode(encode(msg), Downlink, what="downlink")
+    assert got == msg and got.robots == ROWS and got.frames == FRAMES
+    cols = got.columns()
+    assert cols.ids == [3, 4, 9] and cols.sensed_ptr == [0, 2, 2, 3] and cols.inbox_ptr == [0, 3, 3, 4]
+    assert cols.refs == [1, 0, 1, 0] and cols.sensed_at == [1.0, 2.0, 3.0, 4.0, 0.5, 1.0]
+    assert cols.poses.tolist() == [r.pose for r in ROWS] and got.known == [["target"], [], None]
+    # numbers are little-endian on the wire, whatever the machine
+    plain = msgpack.unpackb(encode(msg), raw=False)
+    assert plain["ids"] == (3).to_bytes(4, "little") + (4).to_bytes(4, "little") + (9).to_bytes(4, "little")
+    assert plain["refs"][:4] == (1).to_bytes(4, "little")
+
+
+@pytest.mark.parametrize("field,value,words", [
+    ("ids", b"\x01\x00", "whole number"),
+    ("ids", (-1).to_bytes(4, "little", signed=True) * 3, "negative"),
+    ("poses", b"\x00" * 8, "poses"),
+    ("sensed", b"\x00" * 4 * 4, "offsets"),  # all zero: does not end at the 3 sensed robots
+    ("si", b"", "sx"),
+    ("inbox", b"", "no offsets"),
+    ("refs", (5).to_bytes(4, "little") * 4, "outside"),
+    ("known", [["target"]], "rows for 3 robots"),
+    ("rab", [None, None, [1.0]], "rab[2]"),
+])
+def test_inputs_whose_columns_do_not_fit_are_refused(field, value, words):
+    plain = msgpack.unpackb(encode(Inputs.from_rows(6, 6.0, ROWS, FRAMES)), raw=False)
+    plain[field] = value
+    with pytest.raises(MalformedMessage) as err:
+        decode(raw(plain), Downlink, what="downlink")
+    assert words in str(err.value), str(err.value)

@@ -262,3 +262,17 @@ def test_version_1_and_2_traces_are_read_and_others_refused(tmp_path):
         else:
             with pytest.raises(TraceError, match="trace version 3, this reader knows 1, 2"):
                 read_trace(path)
+
+
+SCALARS = st.one_of(st.integers(min_value=-2**63, max_value=2**64 - 1), st.floats(allow_nan=True),
+                    st.text(max_size=300), st.none(), st.booleans())
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.lists(SCALARS, max_size=6), max_size=20))
+def test_row_lists_pack_to_msgpacks_bytes(rows):
+    """The world's row lists (ints, floats, strings, None) are packed by msgspec: the bytes must be msgpack's."""
+    from swarmactors.trace import pack_record
+
+    rec = {"t": 1, "pos": rows, "sent": rows, "drop": rows}
+    assert pack_record(rec) == packb(rec)
