@@ -26,8 +26,9 @@ Rules:
   the reason; no chain is built for it.
 * R3 plan read - a plan entry that is not a well-formed tuple is refused and counted (``refused``), once
   per version; the robot keeps the last good plan.
-* R4 motion - motion.py (Eqs. 6-8 with the stated reading of Eq. 8, collision bound); the root stands
-  still; free robots stay within d_s of the root and step aside from chain robots.
+* R4 motion - motion.py (Eqs. 6-8 with the stated reading of Eq. 8's admissible set, RVO by sampling, the
+  safety guard); neighbour velocities from the robot's own consecutive sensings; the root stands still;
+  free robots stay within d_s of the root and step aside from chain robots.
 * R5 recruiting - with WP prediction the robot linked to the root recruits as soon as that link reaches
   d_s - v_max dt; without it, only after a REL_NEED from the head.
 * R6 link failure - a parent or child not heard for ``link_fail`` is declared failed. A robot that lost
@@ -116,6 +117,9 @@ class Relays(Behavior):
         self.done = False  # the chain's worker is at its target now (propagated down, not sticky)
         self.heard: dict[int, tuple[int, dict]] = {}  # neighbour -> (tick, last REL_CHAIN body)
         self.sensed: dict[int, np.ndarray] = {}
+        self.seen: tuple | None = None  # (tick, sensed, own position) of the last tick, for the velocities
+        self.vel: dict[int, np.ndarray] = {}  # sensed robot -> its velocity estimated from two sensings
+        self.u_self: np.ndarray | None = None  # this robot's own velocity over the last tick
         self.elections: dict[int, Election | None] = {}
         self.settled: dict[int, int] = {}  # chain -> its elected worker
         self.settled_at: dict[int, int] = {}  # chain -> tick its worker was (re-)elected
@@ -315,6 +319,7 @@ class Relays(Behavior):
     # ------------------------------------------------------------------ tick
     def on_tick(self, ctx: Context, sensed) -> None:
         self.sensed = {s.id: np.array(s.pos[:3 if self.d3 else 2], dtype=float) for s in sensed}
+        self._velocities(ctx)
         self._root_position(ctx)
         if ctx.id == self.root and ctx.tick == self.at:
             for t, pos in enumerate(self.targets):
@@ -335,6 +340,20 @@ class Relays(Behavior):
         self._broadcast(ctx)
         self.node.flush(ctx)
         self._publish(ctx)
+
+    def _velocities(self, ctx: Context) -> None:
+        """Eq. 8's u_j (and u_i): each from this robot's own sensings of j (its own positions) one tick apart.
+
+        A robot sensed at this tick and the one before gets (pos_now - pos_before)/dt; any other gets none
+        (taken as 0 by the RVO). Robots know only what they sense: no velocity is read from the world.
+        """
+        x = self._pos(ctx)
+        before, self.seen = self.seen, (ctx.tick, self.sensed, x)
+        if before is None or before[0] != ctx.tick - 1:
+            self.vel, self.u_self = {}, None
+            return
+        self.vel = {j: (p - before[1][j]) / ctx.dt for j, p in self.sensed.items() if j in before[1]}
+        self.u_self = (x - before[2]) / ctx.dt
 
     def _root_position(self, ctx: Context) -> None:
         if ctx.id == self.root:
@@ -761,8 +780,13 @@ class Relays(Behavior):
             links = [(self.sensed[j], self.dc if j == self.child and back else self.ds)
                      for j in (self.parent, self.child) if j is not None and j in self.sensed
                      and not (j == self.child and pending)]
-        u = motion.constrain(u, x, links, others, self.rcol, ctx.dt)
-        u = self._clear_of_walls(ctx, x, u, lambda v: motion.constrain(v, x, links, others, self.rcol, ctx.dt))
+        vel = [self.vel.get(j) for j in self.sensed]
+        if self.role == ROOT:  # the ground station is fixed: it takes no part in the avoidance
+            u = np.zeros(len(x))
+        else:
+            u = motion.constrain(u, x, links, others, self.rcol, ctx.dt, self.vmax, u_self=self.u_self, v_others=vel,
+                                 vertical=self.kind == "flying", rng=ctx.rng)
+        u = self._clear_of_walls(ctx, x, u, lambda v: motion.bound(v, x, links, others, self.rcol, ctx.dt))
         ctx.move([float(v) for v in u] if len(u) == 3 else
                  [float(u[0]), float(u[1])] + ([0.0] if len(ctx.position) == 3 else []))
 
