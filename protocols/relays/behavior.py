@@ -143,6 +143,7 @@ class Relays(Behavior):
         self.serial = 0
         self.need_until = -1
         self.need_sent = -10**9
+        self.slot_empty_at = -10**9  # the last tick a slot of mine closed without a winner
         self.parent_lost = False
         self.acked = True  # my child has named me as its parent (False for a recruit until it does)
         self.failed: list[list] = []  # [tick, id] links declared failed
@@ -252,11 +253,14 @@ class Relays(Behavior):
             self.chain = b.get("c") if src != self.root else self.chain
             self.depth = int(b["d"]) + 1 if is_int(b.get("d")) else self.depth
             self.up = [ctx.id] + up[: self.k]
-        if (self.role in (WORKER, NETWORKER) and self.parent == self.root and src != self.root
-                and b.get("ch") == ctx.id and b.get("p") == self.root and b.get("c") == self.chain
+        if (self.role in (WORKER, NETWORKER) and self.parent is not None and src not in (self.parent, self.root)
+                and b.get("ch") == ctx.id and b.get("p") == self.parent and b.get("c") == self.chain
                 and self._dist(ctx, src) <= self.ds):
-            self.parent, self.depth = src, 2  # Prop. 1: a recruit now sits between the root and me
+            self.parent = src  # Prop. 1: a recruit now sits between my parent and me
+            self.depth = int(b["d"]) + 1 if is_int(b.get("d")) else self.depth
             self.up = [ctx.id] + up[: self.k]
+        if self.role in (WORKER, NETWORKER) and self.child is not None and (src == self.child or b.get("p") == ctx.id):
+            self._child_moved(ctx)
         if src == self.child:
             self.cnt = int(b["n"]) + 1 if is_int(b.get("n")) else self.cnt
             self.acked = self.acked or b.get("p") == ctx.id
@@ -301,17 +305,28 @@ class Relays(Behavior):
                 self.heard[j] = (ctx.tick, {**self.heard.get(j, (0, {}))[1], "r": None})
         self._load_plan(ctx)
 
+    def _child_moved(self, ctx: Context) -> None:
+        """R5: my child took a recruit x as its parent, and x names me as its parent: x is my child now."""
+        h = self.heard.get(self.child)
+        x = h[1].get("p") if h is not None else None
+        if not is_int(x) or x == ctx.id:
+            return
+        hx = self.heard.get(x)
+        if hx is not None and hx[1].get("p") == ctx.id and hx[1].get("ch") == self.child \
+                and hx[1].get("c") == self.chain:
+            self.child = x
+
     def _on_need(self, ctx: Context, src: int, b: dict) -> None:
-        """The head's request for a robot travels towards the root (Sec. IV, without WP)."""
+        """The head's request for a robot travels towards the root until a robot with free neighbours (Sec. IV)."""
         if self.role == ROOT:  # a base without free neighbours: the root recruits in front of it
             c = b.get("c")
             h = self.heard.get(src)
             if is_int(c) and c not in self.pending and h is not None and h[1].get("p") == ctx.id:
-                self._open(ctx, c, src)
+                self._open(ctx, c, src, ctx.id)
             return
         if self.role not in (WORKER, NETWORKER) or src != self.child:
             return
-        if self.parent == self.root:
+        if self.parent == self.root or self._can_recruit(ctx):
             self.need_until = ctx.tick + self._ticks(ctx, "recruit")
         elif self.parent is not None:
             ctx.send(self.parent, NEED, {"c": self.chain})
@@ -636,8 +651,22 @@ class Relays(Behavior):
         f = self._ticks(ctx, "forget")
         return sorted(j for j, (t, b) in self.heard.items() if b.get("r") == FREE and ctx.tick - t <= f)
 
+    def _can_recruit(self, ctx: Context) -> bool:
+        """A chain robot recruits itself when it heard a free robot within ``forget_time`` (Sec. IV).
+
+        Not while its last own slot closed without a winner within ``forget_time`` (the free robots it heard
+        could not take the slot: out of reach of its call, taken by other slots, or not flying when the slot
+        needs a flying robot); then it passes requests on towards the root.
+        """
+        return (self.role in (WORKER, NETWORKER) and self.parent is not None and not self.parent_lost
+                and ctx.tick - self.slot_empty_at > self._ticks(ctx, "forget") and bool(self._free_neighbours(ctx)))
+
     def _recruit(self, ctx: Context) -> None:
-        """R5: the head's NEED, the base's (or the root's) slot; CBAA on the recruiter's side."""
+        """R5: recruiting; the CBAA slots on the recruiter's side.
+
+        The head's NEED travels down to the first robot with free neighbours, which opens a slot in front of
+        itself (between its parent and itself); a base without free neighbours asks the root.
+        """
         for chain in sorted(self.pending):
             self._run_slot(ctx, chain)
         if self.role == ROOT or self.plan is None or not self.plan.get("pe") or self.parent_lost:
@@ -648,30 +677,40 @@ class Relays(Behavior):
         if head and not self.wp and stretched and not self._at_target() and self.parent is not None \
                 and ctx.tick - self.need_sent >= every:
             self.need_sent = ctx.tick
-            if self.parent == self.root:
+            if self.parent == self.root or self._can_recruit(ctx):
                 self.need_until = ctx.tick + every
             else:
                 ctx.send(self.parent, NEED, {"c": self.chain})
-        if self.parent != self.root or self.chain in self.pending:
+        if self.chain in self.pending:
             return
         want = stretched and not self.done and (self.wp or ctx.tick <= self.need_until)
-        if not want or self.root_pos is None:
+        if want and self._can_recruit(ctx):  # Sec. IV: the first chain robot with free neighbours recruits
+            self._open(ctx, self.chain, ctx.id, self.parent)
+            return
+        if not want or self.parent != self.root or self.root_pos is None:
             return
         if ctx.tick - self.root_asked >= every:  # the root, where free robots wait, recruits in front of me
             self.root_asked = ctx.tick
             ctx.send(self.root, NEED, {"c": self.chain})
 
-    def _open(self, ctx: Context, chain: int, child: int) -> None:
-        """Open a CBAA slot: a free robot to sit between the root and ``child``."""
+    def _open(self, ctx: Context, chain: int, child: int, parent: int) -> None:
+        """Open a CBAA slot: a free robot to sit between ``parent`` and ``child`` (one of them is me).
+
+        The slot's position, which free robots bid on, is the parent's: the recruit goes there first.
+        """
         self.serial += 1
         key = f"{ctx.id}:{self.serial}"
         close = ctx.tick + self._ticks(ctx, "recruit")
-        self.pending[chain] = {"key": key, "close": close, "y": -math.inf, "z": None, "child": child}
-        pos = self.root_pos if self.root_pos is not None else self._pos(ctx)
+        self.pending[chain] = {"key": key, "close": close, "y": -math.inf, "z": None, "child": child,
+                               "parent": parent}
+        if parent == self.root:
+            pos = self.root_pos if self.root_pos is not None else self._pos(ctx)
+        else:
+            pos = self.sensed.get(parent, self._pos(ctx))
         ctx.broadcast(TASK, {"key": key, "pos": [float(v) for v in pos], "close": close, "c": chain,
-                             "fly": self._needs_flying(chain, child)})
+                             "fly": self._needs_flying(chain, child, child == ctx.id)})
 
-    def _needs_flying(self, chain: int, base: int) -> bool:
+    def _needs_flying(self, chain: int, base: int, mine: bool = False) -> bool:
         """A recruit must fly while the chain holds fewer robots than the airborne part of pi needs."""
         plan = self.rel.peek(f"plan/{chain}")
         if valid_plan(plan) is not None or not plan.get("pe") or "g" not in plan:
@@ -683,8 +722,11 @@ class Relays(Behavior):
         if self.d3:  # pi's own 3-D length after the point above g
             pi = [(list(p) + [0.0])[:3] for p in plan["pi"]]
             airborne = planner.length(pi) - planner.arc_3d(pi, plan["g"])
-        h = self.heard.get(base)
-        have = h[1].get("n") if h is not None and is_int(h[1].get("n")) else 0
+        if mine:  # the recruit goes in front of me: me and the robots above me
+            have = 1 if self.child is None else self.cnt
+        else:
+            h = self.heard.get(base)
+            have = h[1].get("n") if h is not None and is_int(h[1].get("n")) else 0
         return have < math.ceil(airborne / self.ds) + 1
 
     def _run_slot(self, ctx: Context, chain: int) -> None:
@@ -694,11 +736,12 @@ class Relays(Behavior):
             if ctx.tick >= p["close"]:
                 if p["z"] is None:
                     del self.pending[chain]
+                    self.slot_empty_at = ctx.tick
                 else:
-                    ctx.send(p["z"], JOIN, {"c": chain, "parent": self.root, "child": p["child"], "key": p["key"]})
+                    ctx.send(p["z"], JOIN, {"c": chain, "parent": p["parent"], "child": p["child"], "key": p["key"]})
                     p["called"] = p["z"]
             return
-        h = self.heard.get(p["child"])
+        h = (0, {"p": self.parent}) if p["child"] == ctx.id else self.heard.get(p["child"])
         if h is not None and h[1].get("p") == p["called"]:  # the child took the recruit as its parent
             self.joined.append([ctx.tick, p["called"]])
             del self.pending[chain]
@@ -776,6 +819,9 @@ class Relays(Behavior):
                     tc = uf
                 u = motion.preferred(uf, ub, dp, dch, self.ds, tc)
                 back = dp > self.ds
+                if not self.acked and back and self.parent in self.sensed:  # a recruit on its way to its slot
+                    v = self.sensed[self.parent] - x
+                    u, back = v / float(np.linalg.norm(v)) * self.vmax, False
             pending = not self.acked and dch is not None and dch > self.ds  # not a link yet: Eq. 4 does not bind
             links = [(self.sensed[j], self.dc if j == self.child and back else self.ds)
                      for j in (self.parent, self.child) if j is not None and j in self.sensed
