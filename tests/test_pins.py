@@ -71,8 +71,8 @@ CASE_PINS = {
     "stigmergy/rgg-20-s1": "7c94528d4b213934d8c10eda0f209eb7",
     "stigmergy/two-components": "70cfb08999bd23fc94d4d7f95eec164c",
     "stigmergy/rgg-20-s2-loss-0.2-anti-entropy": "3ea523cc308013f80b91cb73892e1206",
-    "relays/open-10": "79a9cc45083bc780826f8662f13012ea",  # issue 16: RVO (Eq. 8)
-    "relays/open-12-kill-3": "a100571651ff2b1641e1a1595a9f1f99",  # issue 16: RVO (Eq. 8), kills [5, 1, 4]
+    "relays/open-10": "13ca9c2b02de1ad046ba6028f3dd784e",  # issue 16: RVO (Eq. 8), recruiting per Sec. IV
+    "relays/open-12-kill-3": "ee5a1c291c83227aea9160b9c656e71f",  # issue 16: RVO, Sec. IV recruiting, kills 2 5 1
 }
 
 
