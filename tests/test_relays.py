@@ -68,7 +68,8 @@ def test_a_generated_maze_the_chain_follows_the_corridors_to_the_far_corner(run)
     assert all(c["passed"] for c in result.checks), result.checks
     path = [r["path"] for r in result.reports("relays").values() if r["role"] == "worker"][0]
     assert len(path) >= 5 and sum(math.dist(a[:2], b[:2]) for a, b in zip(path, path[1:], strict=False)) > 12.0
-    assert len(chain_of(result)) - 1 >= 10  # ceil(13.5 / 1.4) links
+    # ceil(13.5 / 1.4) = 10 links along pi; straight links cut the corridors' corners, so 9 can suffice
+    assert len(chain_of(result)) - 1 >= 9
 
 
 def test_c_shaped_obstacle_chain_goes_around_without_touching_it(run):

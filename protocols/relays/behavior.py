@@ -654,11 +654,12 @@ class Relays(Behavior):
     def _can_recruit(self, ctx: Context) -> bool:
         """A chain robot recruits itself when it heard a free robot within ``forget_time`` (Sec. IV).
 
-        Not while its last own slot closed without a winner within ``forget_time`` (the free robots it heard
+        Not a recruit its child has not taken yet (not a link yet); not while its last own slot closed without
+        a winner within ``forget_time`` (the free robots it heard
         could not take the slot: out of reach of its call, taken by other slots, or not flying when the slot
         needs a flying robot); then it passes requests on towards the root.
         """
-        return (self.role in (WORKER, NETWORKER) and self.parent is not None and not self.parent_lost
+        return (self.role in (WORKER, NETWORKER) and self.parent is not None and not self.parent_lost and self.acked
                 and ctx.tick - self.slot_empty_at > self._ticks(ctx, "forget") and bool(self._free_neighbours(ctx)))
 
     def _recruit(self, ctx: Context) -> None:
@@ -730,17 +731,25 @@ class Relays(Behavior):
         return have < math.ceil(airborne / self.ds) + 1
 
     def _run_slot(self, ctx: Context, chain: int) -> None:
-        """Close a slot: call the winner; forget the slot once it joined, or when the call goes unanswered."""
+        """Close a slot: call the winner; forget the slot once it joined, or when the call goes unanswered.
+
+        The call is repeated every tick while the winner is still heard announcing itself free (a lost
+        REL_JOIN would otherwise cost ``join_time``; a robot that is no longer free ignores it).
+        """
         p = self.pending[chain]
+        call = {"c": chain, "parent": p["parent"], "child": p["child"], "key": p["key"]}
         if p.get("called") is None:
             if ctx.tick >= p["close"]:
                 if p["z"] is None:
                     del self.pending[chain]
                     self.slot_empty_at = ctx.tick
                 else:
-                    ctx.send(p["z"], JOIN, {"c": chain, "parent": p["parent"], "child": p["child"], "key": p["key"]})
+                    ctx.send(p["z"], JOIN, call)
                     p["called"] = p["z"]
             return
+        w = self.heard.get(p["called"])
+        if w is not None and w[1].get("r") == FREE and ctx.tick - w[0] <= 1:
+            ctx.send(p["called"], JOIN, call)
         h = (0, {"p": self.parent}) if p["child"] == ctx.id else self.heard.get(p["child"])
         if h is not None and h[1].get("p") == p["called"]:  # the child took the recruit as its parent
             self.joined.append([ctx.tick, p["called"]])
@@ -756,7 +765,10 @@ class Relays(Behavior):
         if self.choice is None:
             best = None
             for key, s in sorted(self.slots.items()):
-                c = 1.0 / (1.0 + math.dist(self._pos(ctx)[:2], s["pos"]))
+                d = math.dist(self._pos(ctx)[:2], s["pos"])
+                if d > self.ds:  # too far from the recruit's parent to be linked to it at once
+                    continue
+                c = 1.0 / (1.0 + d)
                 if self.kind == "flying" and not s["fly"]:
                     c *= 0.1  # a flying robot takes a ground slot only when no ground robot bids
                 if (c, -ctx.id) > (s["y"], -(s["z"] if s["z"] is not None else 10**9)) and (

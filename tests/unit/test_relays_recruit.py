@@ -169,3 +169,42 @@ def test_a_recruit_beyond_d_s_of_its_parent_heads_for_it_not_back_along_pi():
     moves.clear()
     r._move(ctx)
     assert np.dot(moves[0], to_parent) < np.dot(u, to_parent) - 0.2
+
+
+def test_a_free_robot_bids_only_on_slots_within_d_s_of_the_recruits_parent():
+    r = Relays([[8.0, 0.0]], root=0)
+    r.role = FREE
+    near = {"pos": [1.0, 0.0], "close": 110, "y": -np.inf, "z": None, "owner": 2, "chain": 0, "fly": False}
+    far = {**near, "pos": [3.0, 0.0], "owner": 3}
+    r.slots = {"2:1": dict(near), "3:1": dict(far)}
+    ctx = Ctx(7, position=(0.2, 0.3))
+    r._bid(ctx)
+    assert r.choice == "2:1" and r.slots["2:1"]["z"] == 7 and r.slots["3:1"]["z"] is None
+    r.slots, r.choice = {"3:1": dict(far)}, None
+    r._bid(ctx)
+    assert r.choice is None  # 2.8 m from the slot's parent: it would be a link beyond d_b at once
+
+
+def test_a_recruit_not_yet_taken_does_not_recruit_it_passes_the_request_on():
+    mid, ctx = robot(2, hears_free=True)
+    mid.acked = False
+    mid._on_need(ctx, 3, {"c": 0})
+    assert ctx.sent == [(1, NEED, {"c": 0})]
+
+
+def test_the_call_is_repeated_while_the_winner_is_still_heard_free():
+    mid, ctx = robot(2, hears_free=True)
+    mid._on_need(ctx, 3, {"c": 0})
+    mid._recruit(ctx)
+    mid.pending[0]["z"] = 5
+    ctx.tick = mid.pending[0]["close"]
+    mid._recruit(ctx)
+    assert [s[1] for s in ctx.sent] == [JOIN]
+    ctx.tick += 1
+    mid.heard[5] = (ctx.tick - 1, {"r": FREE})  # the call was lost: still free
+    mid._recruit(ctx)
+    assert [s[1] for s in ctx.sent] == [JOIN, JOIN]
+    ctx.tick += 1
+    mid.heard[5] = (ctx.tick - 1, {"r": NETWORKER, "c": 0, "p": 1, "ch": 2})  # it joined
+    mid._recruit(ctx)
+    assert [s[1] for s in ctx.sent] == [JOIN, JOIN]
