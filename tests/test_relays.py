@@ -68,7 +68,8 @@ def test_a_generated_maze_the_chain_follows_the_corridors_to_the_far_corner(run)
     assert all(c["passed"] for c in result.checks), result.checks
     path = [r["path"] for r in result.reports("relays").values() if r["role"] == "worker"][0]
     assert len(path) >= 5 and sum(math.dist(a[:2], b[:2]) for a, b in zip(path, path[1:], strict=False)) > 12.0
-    assert len(chain_of(result)) - 1 >= 10  # ceil(13.5 / 1.4) links
+    # ceil(13.5 / 1.4) = 10 links along pi; straight links cut the corridors' corners, so 9 can suffice
+    assert len(chain_of(result)) - 1 >= 9
 
 
 def test_c_shaped_obstacle_chain_goes_around_without_touching_it(run):
@@ -108,8 +109,22 @@ def chain_at(result, tick: int) -> list[int]:
     return out
 
 
-@pytest.mark.parametrize("kill,n,loss", [([6], 10, 0.0), ([6], 10, 0.1), ([3, 6, 2], 12, 0.0), ([3, 6, 2], 12, 0.1)])
-def test_consecutive_networker_failures_heal(run, kill, n, loss):
+def middle_networkers(run, n: int, loss: float, count: int, tick: int = 250) -> list[int]:
+    """``count`` consecutive networkers from the middle of the chain at ``tick`` - 1, read from a run cut there.
+
+    The run with the kills is the same run up to that tick (lockstep, same seed), so these are the robots the
+    kills hit; the test checks it again on the run itself.
+    """
+    chain = chain_at(run(relays_scenario(n, [[8.0, 0.0]], ticks=tick, loss=loss, checks=[])), tick - 1)
+    inner = chain[1:-1]  # without the worker and the root
+    assert len(inner) >= count, chain
+    first = (len(inner) - count) // 2
+    return inner[first:first + count]
+
+
+@pytest.mark.parametrize("count,n,loss", [(1, 10, 0.0), (1, 10, 0.1), (3, 12, 0.0), (3, 12, 0.1)])
+def test_consecutive_networker_failures_heal(run, count, n, loss):
+    kill = middle_networkers(run, n, loss, count)
     result = run(relays_scenario(n, [[8.0, 0.0]], ticks=650, loss=loss, kills=[(250, kill)],
                                  checks=default_checks(heal=True)))
     chain = chain_at(result, 249)
@@ -187,7 +202,7 @@ class RelaysOverstretch(Relays):
 @pytest.mark.parametrize("mutant,check", [("RelaysNoSplice", "relays.healed"),
                                           ("RelaysOverstretch", "relays.links_within_db")])
 def test_mutants_are_caught(run, mutant, check):
-    kills = [(250, [3, 6, 2])] if mutant == "RelaysNoSplice" else None
+    kills = [(250, middle_networkers(run, 12, 0.0, 3))] if mutant == "RelaysNoSplice" else None
     sc = relays_scenario(12, [[8.0, 0.0]], ticks=450 if kills else 250, kills=kills, checks=default_checks(True))
     sc["robots"][0]["behaviors"][0].update({"use": f"test_relays:{mutant}", "as": "relays"})
     assert passed(run(sc))[check] is False

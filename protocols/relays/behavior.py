@@ -26,8 +26,9 @@ Rules:
   the reason; no chain is built for it.
 * R3 plan read - a plan entry that is not a well-formed tuple is refused and counted (``refused``), once
   per version; the robot keeps the last good plan.
-* R4 motion - motion.py (Eqs. 6-8 with the stated reading of Eq. 8, collision bound); the root stands
-  still; free robots stay within d_s of the root and step aside from chain robots.
+* R4 motion - motion.py (Eqs. 6-8 with the stated reading of Eq. 8's admissible set, RVO by sampling, the
+  safety guard); neighbour velocities from the robot's own consecutive sensings; the root stands still;
+  free robots stay within d_s of the root and step aside from chain robots.
 * R5 recruiting - with WP prediction the robot linked to the root recruits as soon as that link reaches
   d_s - v_max dt; without it, only after a REL_NEED from the head.
 * R6 link failure - a parent or child not heard for ``link_fail`` is declared failed. A robot that lost
@@ -116,6 +117,9 @@ class Relays(Behavior):
         self.done = False  # the chain's worker is at its target now (propagated down, not sticky)
         self.heard: dict[int, tuple[int, dict]] = {}  # neighbour -> (tick, last REL_CHAIN body)
         self.sensed: dict[int, np.ndarray] = {}
+        self.seen: tuple | None = None  # (tick, sensed, own position) of the last tick, for the velocities
+        self.vel: dict[int, np.ndarray] = {}  # sensed robot -> its velocity estimated from two sensings
+        self.u_self: np.ndarray | None = None  # this robot's own velocity over the last tick
         self.elections: dict[int, Election | None] = {}
         self.settled: dict[int, int] = {}  # chain -> its elected worker
         self.settled_at: dict[int, int] = {}  # chain -> tick its worker was (re-)elected
@@ -139,6 +143,7 @@ class Relays(Behavior):
         self.serial = 0
         self.need_until = -1
         self.need_sent = -10**9
+        self.slot_empty_at = -10**9  # the last tick a slot of mine closed without a winner
         self.parent_lost = False
         self.acked = True  # my child has named me as its parent (False for a recruit until it does)
         self.failed: list[list] = []  # [tick, id] links declared failed
@@ -248,11 +253,14 @@ class Relays(Behavior):
             self.chain = b.get("c") if src != self.root else self.chain
             self.depth = int(b["d"]) + 1 if is_int(b.get("d")) else self.depth
             self.up = [ctx.id] + up[: self.k]
-        if (self.role in (WORKER, NETWORKER) and self.parent == self.root and src != self.root
-                and b.get("ch") == ctx.id and b.get("p") == self.root and b.get("c") == self.chain
+        if (self.role in (WORKER, NETWORKER) and self.parent is not None and src not in (self.parent, self.root)
+                and b.get("ch") == ctx.id and b.get("p") == self.parent and b.get("c") == self.chain
                 and self._dist(ctx, src) <= self.ds):
-            self.parent, self.depth = src, 2  # Prop. 1: a recruit now sits between the root and me
+            self.parent = src  # Prop. 1: a recruit now sits between my parent and me
+            self.depth = int(b["d"]) + 1 if is_int(b.get("d")) else self.depth
             self.up = [ctx.id] + up[: self.k]
+        if self.role in (WORKER, NETWORKER) and self.child is not None and (src == self.child or b.get("p") == ctx.id):
+            self._child_moved(ctx)
         if src == self.child:
             self.cnt = int(b["n"]) + 1 if is_int(b.get("n")) else self.cnt
             self.acked = self.acked or b.get("p") == ctx.id
@@ -297,17 +305,28 @@ class Relays(Behavior):
                 self.heard[j] = (ctx.tick, {**self.heard.get(j, (0, {}))[1], "r": None})
         self._load_plan(ctx)
 
+    def _child_moved(self, ctx: Context) -> None:
+        """R5: my child took a recruit x as its parent, and x names me as its parent: x is my child now."""
+        h = self.heard.get(self.child)
+        x = h[1].get("p") if h is not None else None
+        if not is_int(x) or x == ctx.id:
+            return
+        hx = self.heard.get(x)
+        if hx is not None and hx[1].get("p") == ctx.id and hx[1].get("ch") == self.child \
+                and hx[1].get("c") == self.chain:
+            self.child = x
+
     def _on_need(self, ctx: Context, src: int, b: dict) -> None:
-        """The head's request for a robot travels towards the root (Sec. IV, without WP)."""
+        """The head's request for a robot travels towards the root until a robot with free neighbours (Sec. IV)."""
         if self.role == ROOT:  # a base without free neighbours: the root recruits in front of it
             c = b.get("c")
             h = self.heard.get(src)
             if is_int(c) and c not in self.pending and h is not None and h[1].get("p") == ctx.id:
-                self._open(ctx, c, src)
+                self._open(ctx, c, src, ctx.id)
             return
         if self.role not in (WORKER, NETWORKER) or src != self.child:
             return
-        if self.parent == self.root:
+        if self.parent == self.root or self._can_recruit(ctx):
             self.need_until = ctx.tick + self._ticks(ctx, "recruit")
         elif self.parent is not None:
             ctx.send(self.parent, NEED, {"c": self.chain})
@@ -315,6 +334,7 @@ class Relays(Behavior):
     # ------------------------------------------------------------------ tick
     def on_tick(self, ctx: Context, sensed) -> None:
         self.sensed = {s.id: np.array(s.pos[:3 if self.d3 else 2], dtype=float) for s in sensed}
+        self._velocities(ctx)
         self._root_position(ctx)
         if ctx.id == self.root and ctx.tick == self.at:
             for t, pos in enumerate(self.targets):
@@ -335,6 +355,20 @@ class Relays(Behavior):
         self._broadcast(ctx)
         self.node.flush(ctx)
         self._publish(ctx)
+
+    def _velocities(self, ctx: Context) -> None:
+        """Eq. 8's u_j (and u_i): each from this robot's own sensings of j (its own positions) one tick apart.
+
+        A robot sensed at this tick and the one before gets (pos_now - pos_before)/dt; any other gets none
+        (taken as 0 by the RVO). Robots know only what they sense: no velocity is read from the world.
+        """
+        x = self._pos(ctx)
+        before, self.seen = self.seen, (ctx.tick, self.sensed, x)
+        if before is None or before[0] != ctx.tick - 1:
+            self.vel, self.u_self = {}, None
+            return
+        self.vel = {j: (p - before[1][j]) / ctx.dt for j, p in self.sensed.items() if j in before[1]}
+        self.u_self = (x - before[2]) / ctx.dt
 
     def _root_position(self, ctx: Context) -> None:
         if ctx.id == self.root:
@@ -617,8 +651,23 @@ class Relays(Behavior):
         f = self._ticks(ctx, "forget")
         return sorted(j for j, (t, b) in self.heard.items() if b.get("r") == FREE and ctx.tick - t <= f)
 
+    def _can_recruit(self, ctx: Context) -> bool:
+        """A chain robot recruits itself when it heard a free robot within ``forget_time`` (Sec. IV).
+
+        Not a recruit its child has not taken yet (not a link yet); not while its last own slot closed without
+        a winner within ``forget_time`` (the free robots it heard
+        could not take the slot: out of reach of its call, taken by other slots, or not flying when the slot
+        needs a flying robot); then it passes requests on towards the root.
+        """
+        return (self.role in (WORKER, NETWORKER) and self.parent is not None and not self.parent_lost and self.acked
+                and ctx.tick - self.slot_empty_at > self._ticks(ctx, "forget") and bool(self._free_neighbours(ctx)))
+
     def _recruit(self, ctx: Context) -> None:
-        """R5: the head's NEED, the base's (or the root's) slot; CBAA on the recruiter's side."""
+        """R5: recruiting; the CBAA slots on the recruiter's side.
+
+        The head's NEED travels down to the first robot with free neighbours, which opens a slot in front of
+        itself (between its parent and itself); a base without free neighbours asks the root.
+        """
         for chain in sorted(self.pending):
             self._run_slot(ctx, chain)
         if self.role == ROOT or self.plan is None or not self.plan.get("pe") or self.parent_lost:
@@ -629,30 +678,40 @@ class Relays(Behavior):
         if head and not self.wp and stretched and not self._at_target() and self.parent is not None \
                 and ctx.tick - self.need_sent >= every:
             self.need_sent = ctx.tick
-            if self.parent == self.root:
+            if self.parent == self.root or self._can_recruit(ctx):
                 self.need_until = ctx.tick + every
             else:
                 ctx.send(self.parent, NEED, {"c": self.chain})
-        if self.parent != self.root or self.chain in self.pending:
+        if self.chain in self.pending:
             return
         want = stretched and not self.done and (self.wp or ctx.tick <= self.need_until)
-        if not want or self.root_pos is None:
+        if want and self._can_recruit(ctx):  # Sec. IV: the first chain robot with free neighbours recruits
+            self._open(ctx, self.chain, ctx.id, self.parent)
+            return
+        if not want or self.parent != self.root or self.root_pos is None:
             return
         if ctx.tick - self.root_asked >= every:  # the root, where free robots wait, recruits in front of me
             self.root_asked = ctx.tick
             ctx.send(self.root, NEED, {"c": self.chain})
 
-    def _open(self, ctx: Context, chain: int, child: int) -> None:
-        """Open a CBAA slot: a free robot to sit between the root and ``child``."""
+    def _open(self, ctx: Context, chain: int, child: int, parent: int) -> None:
+        """Open a CBAA slot: a free robot to sit between ``parent`` and ``child`` (one of them is me).
+
+        The slot's position, which free robots bid on, is the parent's: the recruit goes there first.
+        """
         self.serial += 1
         key = f"{ctx.id}:{self.serial}"
         close = ctx.tick + self._ticks(ctx, "recruit")
-        self.pending[chain] = {"key": key, "close": close, "y": -math.inf, "z": None, "child": child}
-        pos = self.root_pos if self.root_pos is not None else self._pos(ctx)
+        self.pending[chain] = {"key": key, "close": close, "y": -math.inf, "z": None, "child": child,
+                               "parent": parent}
+        if parent == self.root:
+            pos = self.root_pos if self.root_pos is not None else self._pos(ctx)
+        else:
+            pos = self.sensed.get(parent, self._pos(ctx))
         ctx.broadcast(TASK, {"key": key, "pos": [float(v) for v in pos], "close": close, "c": chain,
-                             "fly": self._needs_flying(chain, child)})
+                             "fly": self._needs_flying(chain, child, child == ctx.id)})
 
-    def _needs_flying(self, chain: int, base: int) -> bool:
+    def _needs_flying(self, chain: int, base: int, mine: bool = False) -> bool:
         """A recruit must fly while the chain holds fewer robots than the airborne part of pi needs."""
         plan = self.rel.peek(f"plan/{chain}")
         if valid_plan(plan) is not None or not plan.get("pe") or "g" not in plan:
@@ -664,22 +723,34 @@ class Relays(Behavior):
         if self.d3:  # pi's own 3-D length after the point above g
             pi = [(list(p) + [0.0])[:3] for p in plan["pi"]]
             airborne = planner.length(pi) - planner.arc_3d(pi, plan["g"])
-        h = self.heard.get(base)
-        have = h[1].get("n") if h is not None and is_int(h[1].get("n")) else 0
+        if mine:  # the recruit goes in front of me: me and the robots above me
+            have = 1 if self.child is None else self.cnt
+        else:
+            h = self.heard.get(base)
+            have = h[1].get("n") if h is not None and is_int(h[1].get("n")) else 0
         return have < math.ceil(airborne / self.ds) + 1
 
     def _run_slot(self, ctx: Context, chain: int) -> None:
-        """Close a slot: call the winner; forget the slot once it joined, or when the call goes unanswered."""
+        """Close a slot: call the winner; forget the slot once it joined, or when the call goes unanswered.
+
+        The call is repeated every tick while the winner is still heard announcing itself free (a lost
+        REL_JOIN would otherwise cost ``join_time``; a robot that is no longer free ignores it).
+        """
         p = self.pending[chain]
+        call = {"c": chain, "parent": p["parent"], "child": p["child"], "key": p["key"]}
         if p.get("called") is None:
             if ctx.tick >= p["close"]:
                 if p["z"] is None:
                     del self.pending[chain]
+                    self.slot_empty_at = ctx.tick
                 else:
-                    ctx.send(p["z"], JOIN, {"c": chain, "parent": self.root, "child": p["child"], "key": p["key"]})
+                    ctx.send(p["z"], JOIN, call)
                     p["called"] = p["z"]
             return
-        h = self.heard.get(p["child"])
+        w = self.heard.get(p["called"])
+        if w is not None and w[1].get("r") == FREE and ctx.tick - w[0] <= 1:
+            ctx.send(p["called"], JOIN, call)
+        h = (0, {"p": self.parent}) if p["child"] == ctx.id else self.heard.get(p["child"])
         if h is not None and h[1].get("p") == p["called"]:  # the child took the recruit as its parent
             self.joined.append([ctx.tick, p["called"]])
             del self.pending[chain]
@@ -694,7 +765,10 @@ class Relays(Behavior):
         if self.choice is None:
             best = None
             for key, s in sorted(self.slots.items()):
-                c = 1.0 / (1.0 + math.dist(self._pos(ctx)[:2], s["pos"]))
+                d = math.dist(self._pos(ctx)[:2], s["pos"])
+                if d > self.ds:  # too far from the recruit's parent to be linked to it at once
+                    continue
+                c = 1.0 / (1.0 + d)
                 if self.kind == "flying" and not s["fly"]:
                     c *= 0.1  # a flying robot takes a ground slot only when no ground robot bids
                 if (c, -ctx.id) > (s["y"], -(s["z"] if s["z"] is not None else 10**9)) and (
@@ -757,12 +831,20 @@ class Relays(Behavior):
                     tc = uf
                 u = motion.preferred(uf, ub, dp, dch, self.ds, tc)
                 back = dp > self.ds
+                if not self.acked and back and self.parent in self.sensed:  # a recruit on its way to its slot
+                    v = self.sensed[self.parent] - x
+                    u, back = v / float(np.linalg.norm(v)) * self.vmax, False
             pending = not self.acked and dch is not None and dch > self.ds  # not a link yet: Eq. 4 does not bind
             links = [(self.sensed[j], self.dc if j == self.child and back else self.ds)
                      for j in (self.parent, self.child) if j is not None and j in self.sensed
                      and not (j == self.child and pending)]
-        u = motion.constrain(u, x, links, others, self.rcol, ctx.dt)
-        u = self._clear_of_walls(ctx, x, u, lambda v: motion.constrain(v, x, links, others, self.rcol, ctx.dt))
+        vel = [self.vel.get(j) for j in self.sensed]
+        if self.role == ROOT:  # the ground station is fixed: it takes no part in the avoidance
+            u = np.zeros(len(x))
+        else:
+            u = motion.constrain(u, x, links, others, self.rcol, ctx.dt, self.vmax, u_self=self.u_self, v_others=vel,
+                                 vertical=self.kind == "flying", rng=ctx.rng)
+        u = self._clear_of_walls(ctx, x, u, lambda v: motion.bound(v, x, links, others, self.rcol, ctx.dt))
         ctx.move([float(v) for v in u] if len(u) == 3 else
                  [float(u[0]), float(u[1])] + ([0.0] if len(ctx.position) == 3 else []))
 

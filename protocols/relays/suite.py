@@ -171,7 +171,7 @@ def suite(mode: str) -> list[Case]:
     """
     cases = [
         _case("open-10", relays_scenario(10, [[8.0, 0.0]], ticks=260)),
-        _case("open-12-kill-3", relays_scenario(12, [[8.0, 0.0]], ticks=560, kills=[(250, [3, 6, 2])]),
+        _case("open-12-kill-3", relays_scenario(12, [[8.0, 0.0]], ticks=560, kills=[(250, [2, 5, 1])]),
               default_checks(heal=True)),
         _case("open-6-realtime", relays_scenario(6, [[3.0, 0.0]], ticks=200, dt=0.1, clock="realtime",
                                                  bid_time=1.0)),
@@ -180,7 +180,7 @@ def suite(mode: str) -> list[Case]:
         cases += [
             _case("c-shape-12", relays_scenario(12, [[8.0, 0.0]], ticks=600, obstacles=C_SHAPE)),
             _case("open-10-kill-1-loss-0.1", relays_scenario(10, [[8.0, 0.0]], ticks=700, loss=0.1,
-                                                             kills=[(300, [6])]), default_checks(heal=True)),
+                                                             kills=[(300, [5])]), default_checks(heal=True)),
             _case("open-10-wp", relays_scenario(10, [[8.0, 0.0]], ticks=260, wp=True)),
             _case("open-12-two-targets", relays_scenario(12, [[5.0, 3.0], [5.0, -3.0]], ticks=600)),
             _case("wall-ground-and-flying-13", wall_scenario(ticks=500)),

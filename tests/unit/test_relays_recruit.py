@@ -1,0 +1,210 @@
+"""Swarm Relays' recruiting (R5, Sec. IV and Proposition 1) on one robot at a time, below Zenoh.
+
+The head's request travels down the chain towards the root until a robot with free neighbours; that robot opens
+the CBAA slot and the recruit goes in front of it (between its parent and itself); only a base without free
+neighbours asks the root.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from protocols.relays.behavior import FREE, JOIN, NEED, NETWORKER, TASK, WORKER, Relays
+
+DT = 0.2
+
+
+class Ctx(SimpleNamespace):
+    """The part of the robot context the recruiting rules use; it records what the robot sends."""
+
+    def __init__(self, rid: int, tick: int = 100, position=(0.0, 0.0)):
+        super().__init__(id=rid, tick=tick, dt=DT, position=list(position), sent=[], cast=[])
+
+    def send(self, dst, kind, body):
+        self.sent.append((dst, kind, body))
+
+    def broadcast(self, kind, body):
+        self.cast.append((kind, body))
+
+
+# the chain 0 (root) - 1 (base) - 2 - 3 (head) along the x axis, 1.4 m apart (every link stretched)
+X = {0: (0.0, 0.0), 1: (1.4, 0.0), 2: (2.8, 0.0), 3: (4.2, 0.0), 5: (0.2, 0.6)}
+PARENT = {1: 0, 2: 1, 3: 2}
+CHILD = {1: 2, 2: 3, 3: None}
+
+
+def robot(rid: int, hears_free: bool, tick: int = 100, wp: bool = False) -> tuple[Relays, Ctx]:
+    r = Relays([[8.0, 0.0]], root=0, wp=wp)
+    r.rel = SimpleNamespace(peek=lambda key: None)  # no stigmergy: no flying slots
+    r.role = WORKER if CHILD[rid] is None else NETWORKER
+    r.chain, r.parent, r.child, r.depth = 0, PARENT[rid], CHILD[rid], rid
+    r.plan = {"pe": True, "pi": [[0.0, 0.0], [8.0, 0.0]], "pig": [[0.0, 0.0], [8.0, 0.0]], "n": 6}
+    r.root_pos = np.array(X[0])
+    r.sensed = {j: np.array(p) for j, p in X.items() if j != rid}
+    for j in (r.parent, r.child):
+        if j is not None:
+            r.heard[j] = (tick, {"r": NETWORKER, "c": 0, "p": PARENT.get(j), "ch": CHILD.get(j), "d": j})
+    if hears_free:
+        r.heard[5] = (tick - 1, {"r": FREE, "c": None, "p": None, "ch": None, "d": None})
+    return r, Ctx(rid, tick, X[rid])
+
+
+def test_a_head_without_free_neighbours_passes_its_request_down():
+    head, ctx = robot(3, hears_free=False)
+    head._recruit(ctx)
+    assert ctx.sent == [(2, NEED, {"c": 0})] and not head.pending and not ctx.cast
+
+
+def test_the_request_travels_down_past_robots_without_free_neighbours():
+    mid, ctx = robot(2, hears_free=False)
+    mid._on_need(ctx, 3, {"c": 0})
+    assert ctx.sent == [(1, NEED, {"c": 0})]  # passed on towards the root
+    mid._recruit(ctx)
+    assert not mid.pending and not ctx.cast  # it does not recruit
+
+
+def test_the_first_robot_with_free_neighbours_recruits_in_front_of_itself():
+    mid, ctx = robot(2, hears_free=True)
+    mid._on_need(ctx, 3, {"c": 0})
+    assert ctx.sent == []  # the request stops here
+    mid._recruit(ctx)
+    assert mid.pending[0]["parent"] == 1 and mid.pending[0]["child"] == 2  # between its parent and itself
+    ((kind, task),) = ctx.cast
+    assert kind == TASK and task["c"] == 0 and task["pos"] == list(X[1])  # the recruit goes to the parent first
+    # CBAA: robot 5 holds the slot at the close; the recruiter calls it to sit between 1 and 2
+    mid.pending[0]["z"], mid.pending[0]["y"] = 5, 0.5
+    ctx.tick = mid.pending[0]["close"]
+    mid._recruit(ctx)
+    assert (5, JOIN, {"c": 0, "parent": 1, "child": 2, "key": task["key"]}) in ctx.sent
+    # the recruit names 1 as parent and 2 as child; within d_s, robot 2 takes it as its parent
+    mid.sensed[5] = np.array([2.1, 0.1])
+    mid._on_chain(ctx, 5, {"r": NETWORKER, "c": 0, "p": 1, "ch": 2, "d": 2, "up": [5, 1, 0], "dn": [5]})
+    assert mid.parent == 5 and mid.depth == 3
+    ctx.tick += 1
+    mid._recruit(ctx)
+    assert 0 not in mid.pending and mid.joined[-1] == [ctx.tick, 5]
+
+
+def test_a_head_with_free_neighbours_recruits_itself():
+    head, ctx = robot(3, hears_free=True)
+    head._recruit(ctx)
+    assert ctx.sent == [] and head.pending[0]["parent"] == 2 and head.pending[0]["child"] == 3
+
+
+def test_the_old_parent_takes_the_recruit_as_its_child():
+    """Robot 1's child 2 took recruit 6 (which names 1 as parent, 2 as child): 6 is 1's child now, in either order."""
+    for order in ((2, 6), (6, 2)):
+        base, ctx = robot(1, hears_free=False)
+        said = {2: {"r": NETWORKER, "c": 0, "p": 6, "ch": 3, "d": 3},
+                6: {"r": NETWORKER, "c": 0, "p": 1, "ch": 2, "d": 2}}
+        base._on_chain(ctx, order[0], said[order[0]])
+        assert base.child == 2
+        base._on_chain(ctx, order[1], said[order[1]])
+        assert base.child == 6
+    other, ctx = robot(1, hears_free=False)  # a robot naming 1 as parent but not sitting above 2: ignored
+    other._on_chain(ctx, 2, {"r": NETWORKER, "c": 0, "p": 6, "ch": 3, "d": 3})
+    other._on_chain(ctx, 6, {"r": NETWORKER, "c": 0, "p": 1, "ch": 4, "d": 2})
+    assert other.child == 2
+
+
+def test_a_base_without_free_neighbours_asks_the_root_which_recruits_in_front_of_it():
+    base, ctx = robot(1, hears_free=False)
+    base._on_need(ctx, 2, {"c": 0})
+    base._recruit(ctx)
+    assert ctx.sent == [(0, NEED, {"c": 0})] and not base.pending
+    root = Relays([[8.0, 0.0]], root=0)
+    root.rel = SimpleNamespace(peek=lambda key: None)
+    root.role, root.root_pos = "root", np.array(X[0])
+    root.heard[1] = (100, {"r": NETWORKER, "c": 0, "p": 0, "ch": 2, "d": 1})
+    rctx = Ctx(0)
+    root._on_need(rctx, 1, {"c": 0})
+    assert root.pending[0]["parent"] == 0 and root.pending[0]["child"] == 1
+
+
+def test_a_slot_that_closes_empty_sends_the_next_requests_down_for_forget_time():
+    mid, ctx = robot(2, hears_free=True)
+    mid._on_need(ctx, 3, {"c": 0})
+    mid._recruit(ctx)
+    ctx.tick = mid.pending[0]["close"]
+    mid._recruit(ctx)  # nobody bid
+    assert 0 not in mid.pending and mid.slot_empty_at == ctx.tick
+    ctx.sent.clear()
+    mid.heard[5] = (ctx.tick, mid.heard[5][1])
+    mid._on_need(ctx, 3, {"c": 0})
+    assert ctx.sent == [(1, NEED, {"c": 0})]
+    ctx.tick += mid._ticks(ctx, "forget") + 1
+    mid.heard[5] = (ctx.tick, mid.heard[5][1])
+    ctx.sent.clear()
+    mid._on_need(ctx, 3, {"c": 0})
+    assert ctx.sent == []  # it recruits again
+
+
+def test_with_wp_prediction_a_stretched_robot_with_free_neighbours_recruits_unasked():
+    mid, ctx = robot(2, hears_free=True, wp=True)
+    mid._recruit(ctx)
+    assert mid.pending[0]["parent"] == 1 and ctx.sent == []
+    far, ctx = robot(2, hears_free=False, wp=True)
+    far._recruit(ctx)
+    assert not far.pending and ctx.sent == []  # not the base: without free neighbours it waits
+
+
+def test_a_recruit_beyond_d_s_of_its_parent_heads_for_it_not_back_along_pi():
+    """Eq. 6 would send it back along pi (towards the root, away from a parent further out): it goes to the parent."""
+    r, ctx = robot(2, hears_free=False)
+    r.acked, r.child = False, 3  # a recruit its child has not taken yet
+    r.joined = [[ctx.tick, 0]]
+    r.path, r.s = (np.array([[0.0, 0.0], [8.0, 0.0]]), np.array([0.0, 8.0])), None
+    x = np.array([0.3, -0.8])  # beside the root, 2.06 m from its parent 1 at (2.2, 0)
+    r.sensed = {0: np.array(X[0]), 1: np.array([2.2, 0.0]), 3: np.array([3.6, 0.0])}
+    moves = []
+    ctx.position, ctx.map, ctx.rng = list(x), None, np.random.default_rng(0)
+    ctx.move = moves.append
+    r._move(ctx)
+    ((u,),) = [moves]
+    to_parent = (r.sensed[1] - x) / np.linalg.norm(r.sensed[1] - x)
+    assert np.dot(u, to_parent) > 0.45  # towards the parent, nearly at v_max
+    r.acked, r.child = True, None  # not a fresh recruit: Eq. 6 as written (back along pi, towards the root)
+    moves.clear()
+    r._move(ctx)
+    assert np.dot(moves[0], to_parent) < np.dot(u, to_parent) - 0.2
+
+
+def test_a_free_robot_bids_only_on_slots_within_d_s_of_the_recruits_parent():
+    r = Relays([[8.0, 0.0]], root=0)
+    r.role = FREE
+    near = {"pos": [1.0, 0.0], "close": 110, "y": -np.inf, "z": None, "owner": 2, "chain": 0, "fly": False}
+    far = {**near, "pos": [3.0, 0.0], "owner": 3}
+    r.slots = {"2:1": dict(near), "3:1": dict(far)}
+    ctx = Ctx(7, position=(0.2, 0.3))
+    r._bid(ctx)
+    assert r.choice == "2:1" and r.slots["2:1"]["z"] == 7 and r.slots["3:1"]["z"] is None
+    r.slots, r.choice = {"3:1": dict(far)}, None
+    r._bid(ctx)
+    assert r.choice is None  # 2.8 m from the slot's parent: it would be a link beyond d_b at once
+
+
+def test_a_recruit_not_yet_taken_does_not_recruit_it_passes_the_request_on():
+    mid, ctx = robot(2, hears_free=True)
+    mid.acked = False
+    mid._on_need(ctx, 3, {"c": 0})
+    assert ctx.sent == [(1, NEED, {"c": 0})]
+
+
+def test_the_call_is_repeated_while_the_winner_is_still_heard_free():
+    mid, ctx = robot(2, hears_free=True)
+    mid._on_need(ctx, 3, {"c": 0})
+    mid._recruit(ctx)
+    mid.pending[0]["z"] = 5
+    ctx.tick = mid.pending[0]["close"]
+    mid._recruit(ctx)
+    assert [s[1] for s in ctx.sent] == [JOIN]
+    ctx.tick += 1
+    mid.heard[5] = (ctx.tick - 1, {"r": FREE})  # the call was lost: still free
+    mid._recruit(ctx)
+    assert [s[1] for s in ctx.sent] == [JOIN, JOIN]
+    ctx.tick += 1
+    mid.heard[5] = (ctx.tick - 1, {"r": NETWORKER, "c": 0, "p": 1, "ch": 2})  # it joined
+    mid._recruit(ctx)
+    assert [s[1] for s in ctx.sent] == [JOIN, JOIN]
