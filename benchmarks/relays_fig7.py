@@ -70,7 +70,7 @@ def failures(n: int, fraction: float, start: int, ticks: int, seed: int) -> list
     return sorted(events.items())
 
 
-def heterogeneous(sc: dict, flying: int = 5, wall_x: tuple[float, float] = (29.4, 29.9), altitude: float = 0.7,
+def heterogeneous(sc: dict, flying: int = 5, wall_x: tuple[float, float] = (32.3, 33.3), altitude: float = 0.7,
                   wall_top: float = 0.5) -> dict:
     """Arena 1 as the paper's Fig. 7 has it: 20 ground and 5 flying robots, a section only flying robots cross.
 
