@@ -16,6 +16,11 @@ before the world scheduled the delivery (the robot host's flush and the uplink
 to the world); the rest is the radio's latency c plus the world's timer
 lateness and the downlink.
 
+With ``SWARMACTORS_RT_STAMPS=1`` in every process's environment (realtime hosts then keep per-delivery stamps,
+``swarmactors.host.RT_STAMPS``) it also records, per delivery, the wall times (``time.time()``, seconds after the
+broadcast call) at which the world scheduled it (``frame.sent``), its downlink reached the receiving host's loop,
+the precise timer's thread woke for it, the loop began handing it over, and ``on_frame`` was called: ``parts``.
+
 Used by ``benchmarks/bench.py`` as ``use = "latency_probe:LatencyProbe"`` with
 ``benchmarks/`` on ``sys.path``.
 """
@@ -25,6 +30,7 @@ from __future__ import annotations
 import time
 
 from swarmactors import Behavior
+from swarmactors import host as _host
 
 KIND = "PROBE"
 
@@ -40,10 +46,11 @@ class LatencyProbe(Behavior):
         self.delays: list[float] = []
         self.uplink: list[float] = []
         self.delays_mono: list[float] = []  # from the broadcast call to on_frame, on time.monotonic()
+        self.parts: list[list[float]] = []  # per delivery with stamps: scheduled, arrived, woke, handed, on_frame
 
     def on_tick(self, ctx, sensed) -> None:
         self.sent += 1
-        ctx.broadcast(KIND, [ctx.now, time.monotonic()])
+        ctx.broadcast(KIND, [ctx.now, time.monotonic(), time.time()])
 
     def on_frame(self, ctx, frame) -> None:
         sent = frame.body[0]
@@ -51,6 +58,14 @@ class LatencyProbe(Behavior):
         self.uplink.append(frame.sent - sent)
         if len(frame.body) > 1:
             self.delays_mono.append(time.monotonic() - frame.body[1])
+        stamps = getattr(_host, "RT_STAMPS", None)
+        if stamps is not None and len(frame.body) > 2:
+            st = stamps.pop((frame.src, frame.seq, ctx.id), None)
+            if st is not None:
+                arrived, woke, handed, epoch = st
+                call = frame.body[2]
+                at = (epoch + frame.sent, arrived, woke, handed, time.time())
+                self.parts.append([round(x - call, 7) for x in at])
 
     def report(self) -> dict:
         return {
@@ -58,4 +73,5 @@ class LatencyProbe(Behavior):
             "delays": [round(d, 7) for d in self.delays],
             "uplink": [round(d, 7) for d in self.uplink],
             "delays_mono": [round(d, 7) for d in self.delays_mono],
+            "parts": self.parts,
         }

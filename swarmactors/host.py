@@ -18,6 +18,7 @@ from __future__ import annotations
 import asyncio
 import inspect
 import logging
+import os
 import sys
 import time
 import traceback
@@ -30,7 +31,7 @@ import numpy as np
 from swarmactors.behavior import Behavior, Context, Frame, Sensed
 from swarmactors.knownmap import KnownMap
 from swarmactors.plugins import RefusedBehavior, resolve_behavior
-from swarmactors.precise_timer import PreciseTimer
+from swarmactors.precise_timer import LoopTimer, PreciseTimer, plain_loop, precise_loop
 from swarmactors.robot_clock import robot_clock
 from swarmactors.tasks import TaskSet
 from transport import Keys, Link, MalformedMessage, pack, seal, unseal
@@ -63,6 +64,15 @@ RT_SLICED_UP_TO = 256
 # realtime, same hosts: how long the thread holding the GIL keeps it when another thread waits (Python's default
 # is 5 ms; the precise timer's thread and Zenoh's callback threads need it to hand frames over on time)
 RT_SWITCH_INTERVAL_S = 0.0002
+# realtime: how a host waits for a delivery's due time: "loop", the event loop's own timers made precise
+# (precise_timer.precise_loop; falls back to "thread" on a loop it cannot change), or "thread", a timer thread
+# that posts to the loop (precise_timer.PreciseTimer). Benchmarks compare the two with SWARMACTORS_RT_TIMER.
+RT_TIMER = os.environ.get("SWARMACTORS_RT_TIMER", "loop")
+# Benchmarks only (benchmarks/latency_probe.py): with SWARMACTORS_RT_STAMPS=1 a realtime host records, per
+# delivery (src, seq, dst), the wall times (time.time()) at which its downlink reached the loop, at which the
+# precise timer's thread woke for it and at which the loop began handing it over, and the run's epoch.
+RT_STAMPS: dict[tuple[int, int, int], tuple[float, float, float, float]] | None = (
+    {} if os.environ.get("SWARMACTORS_RT_STAMPS") == "1" else None)
 
 
 class WorldLost(RuntimeError):
@@ -577,7 +587,10 @@ class RobotHost:
         self._tasks = TaskSet(f"host {self.name}", on_error=_unless_timeout)
         self._loop = asyncio.get_running_loop()
         self._rt_next: tuple[Inputs, int] | None = None  # the tick being stepped, and its next robot's index
-        self._timer = PreciseTimer(self._loop, self._deliver, self.name)
+        self._rt_arrived: dict[tuple[int, int, int], float] = {}  # benchmarks only (RT_STAMPS)
+        precise = RT_TIMER == "loop" and precise_loop(self._loop)
+        self._timer = (LoopTimer(self._loop, self._deliver, stamped=RT_STAMPS is not None) if precise
+                       else PreciseTimer(self._loop, self._deliver, self.name, stamped=RT_STAMPS is not None))
         switch = sys.getswitchinterval()
         if len(self.robots) <= RT_SLICED_UP_TO:  # the timer and Zenoh threads get the GIL within this
             sys.setswitchinterval(RT_SWITCH_INTERVAL_S)
@@ -590,6 +603,8 @@ class RobotHost:
             await self._stopped.wait()
         finally:
             self._timer.close()
+            if precise:
+                plain_loop(self._loop)
             sys.setswitchinterval(switch)
         await self._tasks.close()
         await self._send_reports(uplink)
@@ -628,12 +643,14 @@ class RobotHost:
             return
         if isinstance(msg, Deliveries):
             now = time.time()
+            if RT_STAMPS is not None:
+                self._rt_arrived.update(((d.src, d.seq, d.dst), now) for d in msg.items)
             due_now = [d for d in msg.items if d.due is None or d.due <= now]
             for d in msg.items:
                 if d.due is not None and d.due > now:
                     self._timer.add(d.due, d)  # handed over at its due time, never earlier
             if due_now:
-                self._deliver(due_now)
+                self._deliver(due_now, now)
             return
         if isinstance(msg, Inputs):
             if self._rt_next is not None:  # the previous tick's robots not stepped yet go first, all at once
@@ -679,10 +696,15 @@ class RobotHost:
         if self._rt_next is not None and self._rt_next[0] is msg:
             self._rt_tick(*self._rt_next)
 
-    def _deliver(self, items: list[Delivery]) -> None:
-        """Realtime: hand frames whose due time has come to their robots (one batch per robot)."""
+    def _deliver(self, items: list[Delivery], woke: float = 0.0) -> None:
+        """Realtime: hand frames whose due time has come to their robots (one batch per robot).
+
+        ``woke``: when the precise timer's thread took them (or they arrived already due); benchmarks only.
+        """
         if self._stopped.is_set():
             return
+        if RT_STAMPS is not None:
+            self._stamp(items, woke)
         now = self._rt_now()
         batches: dict[int, list[Frame]] = {}
         for d in items:
@@ -704,6 +726,12 @@ class RobotHost:
                 self._rt_flush(touched)
                 touched = []
         self._rt_flush(touched)
+
+    def _stamp(self, items: list[Delivery], woke: float) -> None:
+        handed, arrived, epoch = time.time(), self._rt_arrived, self._epoch or 0.0
+        for d in items:
+            key = (d.src, d.seq, d.dst)
+            RT_STAMPS[key] = (arrived.pop(key, handed), woke or handed, handed, epoch)
 
     def _rt_run(self, robot: Robot, calls: Iterator[tuple]) -> None:
         rest = run_calls(robot, calls)
