@@ -16,10 +16,11 @@ before the world scheduled the delivery (the robot host's flush and the uplink
 to the world); the rest is the radio's latency c plus the world's timer
 lateness and the downlink.
 
-With ``SWARMACTORS_RT_STAMPS=1`` in every process's environment (realtime hosts then keep per-delivery stamps,
-``swarmactors.host.RT_STAMPS``) it also records, per delivery, the wall times (``time.time()``, seconds after the
-broadcast call) at which the world scheduled it (``frame.sent``), its downlink reached the receiving host's loop,
-the precise timer's thread woke for it, the loop began handing it over, and ``on_frame`` was called: ``parts``.
+With ``SWARMACTORS_RT_STAMPS=1`` in every process's environment (realtime hosts then keep stamps,
+``swarmactors.host.RT_STAMPS`` and ``RT_BATCH``) it also records, per delivery, the wall times
+(``time.time()``, seconds after the broadcast call) at which the world scheduled it (``frame.sent``), its
+downlink reached the receiving host's loop, the host's timer woke for it, the loop began handing it over, and
+``on_frame`` was called: ``parts``.
 
 Used by ``benchmarks/bench.py`` as ``use = "latency_probe:LatencyProbe"`` with
 ``benchmarks/`` on ``sys.path``.
@@ -60,12 +61,12 @@ class LatencyProbe(Behavior):
             self.delays_mono.append(time.monotonic() - frame.body[1])
         stamps = getattr(_host, "RT_STAMPS", None)
         if stamps is not None and len(frame.body) > 2:
-            st = stamps.pop((frame.src, frame.seq, ctx.id), None)
-            if st is not None:
-                arrived, woke, handed, epoch = st
+            arrived = stamps.get((frame.src, frame.seq))
+            if arrived is not None:
+                woke, handed, epoch = _host.RT_BATCH
                 call = frame.body[2]
-                at = (epoch + frame.sent, arrived, woke, handed, time.time())
-                self.parts.append([round(x - call, 7) for x in at])
+                self.parts.append((epoch + frame.sent - call, arrived - call, (woke or handed) - call,
+                                   handed - call, time.time() - call))
 
     def report(self) -> dict:
         return {
@@ -73,5 +74,5 @@ class LatencyProbe(Behavior):
             "delays": [round(d, 7) for d in self.delays],
             "uplink": [round(d, 7) for d in self.uplink],
             "delays_mono": [round(d, 7) for d in self.delays_mono],
-            "parts": self.parts,
+            "parts": [[round(x, 7) for x in p] for p in self.parts],
         }

@@ -68,11 +68,12 @@ RT_SWITCH_INTERVAL_S = 0.0002
 # (precise_timer.precise_loop; falls back to "thread" on a loop it cannot change), or "thread", a timer thread
 # that posts to the loop (precise_timer.PreciseTimer). Benchmarks compare the two with SWARMACTORS_RT_TIMER.
 RT_TIMER = os.environ.get("SWARMACTORS_RT_TIMER", "loop")
-# Benchmarks only (benchmarks/latency_probe.py): with SWARMACTORS_RT_STAMPS=1 a realtime host records, per
-# delivery (src, seq, dst), the wall times (time.time()) at which its downlink reached the loop, at which the
-# precise timer's thread woke for it and at which the loop began handing it over, and the run's epoch.
-RT_STAMPS: dict[tuple[int, int, int], tuple[float, float, float, float]] | None = (
-    {} if os.environ.get("SWARMACTORS_RT_STAMPS") == "1" else None)
+# Benchmarks only (benchmarks/latency_probe.py): with SWARMACTORS_RT_STAMPS=1 a realtime host records, per frame
+# (src, seq), the wall time (time.time()) at which its downlink reached the loop, and in RT_BATCH, for the
+# hand-over under way, when the timer woke for it, when the loop began it, and the run's epoch. Cheap on purpose
+# (one dict entry per frame and message, three numbers per hand-over), so as not to change what it measures.
+RT_STAMPS: dict[tuple[int, int], float] | None = {} if os.environ.get("SWARMACTORS_RT_STAMPS") == "1" else None
+RT_BATCH = [0.0, 0.0, 0.0]
 
 
 class WorldLost(RuntimeError):
@@ -587,7 +588,6 @@ class RobotHost:
         self._tasks = TaskSet(f"host {self.name}", on_error=_unless_timeout)
         self._loop = asyncio.get_running_loop()
         self._rt_next: tuple[Inputs, int] | None = None  # the tick being stepped, and its next robot's index
-        self._rt_arrived: dict[tuple[int, int, int], float] = {}  # benchmarks only (RT_STAMPS)
         precise = RT_TIMER == "loop" and precise_loop(self._loop)
         self._timer = (LoopTimer(self._loop, self._deliver, stamped=RT_STAMPS is not None) if precise
                        else PreciseTimer(self._loop, self._deliver, self.name, stamped=RT_STAMPS is not None))
@@ -644,7 +644,7 @@ class RobotHost:
         if isinstance(msg, Deliveries):
             now = time.time()
             if RT_STAMPS is not None:
-                self._rt_arrived.update(((d.src, d.seq, d.dst), now) for d in msg.items)
+                RT_STAMPS.update(((d.src, d.seq), now) for d in msg.items)
             due_now = [d for d in msg.items if d.due is None or d.due <= now]
             for d in msg.items:
                 if d.due is not None and d.due > now:
@@ -704,34 +704,40 @@ class RobotHost:
         if self._stopped.is_set():
             return
         if RT_STAMPS is not None:
-            self._stamp(items, woke)
-        now = self._rt_now()
-        batches: dict[int, list[Frame]] = {}
+            RT_BATCH[:] = (woke, time.time(), self._epoch or 0.0)
+        # Each robot's frames are decoded just before its hooks run, not all up front: the first robot's
+        # on_frame does not wait for the whole batch's decoding. ``ctx.now`` is read per robot.
+        robots = self.robots
+        by_robot: dict[int, list[Delivery]] = {}
         for d in items:
-            robot = self.robots.get(d.dst)
+            got = by_robot.get(d.dst)
+            if got is None:
+                by_robot[d.dst] = [d]
+            else:
+                got.append(d)
+        sliced = len(robots) <= RT_SLICED_UP_TO
+        touched = []
+        for rid, ds in by_robot.items():
+            robot = robots.get(rid)
             if robot is None or not robot.alive:
                 continue
-            frame = decode_body(FrameIn(d.src, d.kind, d.seq, d.body, d.sent), d.rab)
-            if frame is None:
-                robot.bad_bodies += 1
+            frames = []
+            for d in ds:
+                try:
+                    body = _body_decoder.decode(d.body)
+                except msgspec.DecodeError:
+                    robot.bad_bodies += 1
+                    continue
+                frames.append(Frame(d.src, d.kind, body, d.seq, d.sent, None if d.rab is None else tuple(d.rab)))
+            if not frames:
                 continue
-            batches.setdefault(d.dst, []).append(frame)
-        touched = []
-        for rid, frames in batches.items():
-            robot = self.robots[rid]
-            robot.ctx._set_time(self.tick, now)
+            robot.ctx._set_time(self.tick, self._rt_now())
             self._rt_run(robot, robot.frame_calls(frames))
             touched.append(robot)
-            if len(touched) == RT_SLICE and len(self.robots) <= RT_SLICED_UP_TO:  # sent now, not after all
+            if sliced and len(touched) == RT_SLICE:  # sent now, not after all
                 self._rt_flush(touched)
                 touched = []
         self._rt_flush(touched)
-
-    def _stamp(self, items: list[Delivery], woke: float) -> None:
-        handed, arrived, epoch = time.time(), self._rt_arrived, self._epoch or 0.0
-        for d in items:
-            key = (d.src, d.seq, d.dst)
-            RT_STAMPS[key] = (arrived.pop(key, handed), woke or handed, handed, epoch)
 
     def _rt_run(self, robot: Robot, calls: Iterator[tuple]) -> None:
         rest = run_calls(robot, calls)
@@ -747,7 +753,9 @@ class RobotHost:
         task.add_done_callback(done)
 
     def _rt_flush(self, robots: list[Robot]) -> None:
-        rows = [r.outputs() for r in dict.fromkeys(robots)]
+        # a robot with nothing queued, no velocity, no status and no error to report is skipped at once
+        rows = [r.outputs() for r in dict.fromkeys(robots)
+                if r.ctx._outbox or r.ctx._velocity is not None or r.ctx._status or (r.error and not r.error_sent)]
         rows = [row for row in rows if row.velocity is not None or row.frames or row.status or row.error]
         if rows:
             self.link.publish(self.keys.up(self.name), self._uplink(self.tick, rows))
