@@ -49,7 +49,14 @@ def one(n: int, k: int, seconds: float) -> dict:
     import numpy as np
 
     c = bench.REALTIME_C
-    data, _ = bench.run_emulator(bench.realtime_scenario(n, seconds), k)
+    import time
+
+    marks: list[tuple[int, float]] = []  # (tick, process CPU) at each tick's end: the world's CPU while ticking
+
+    def on_tick(world) -> None:
+        marks.append((world.tick, time.process_time()))
+
+    data, _ = bench.run_emulator(bench.realtime_scenario(n, seconds), k, on_tick=on_tick)
     delays, mono, parts = [], [], []
     for r in data["robots"].values():
         rep = r.get("latency_probe") or {}
@@ -67,7 +74,11 @@ def one(n: int, k: int, seconds: float) -> dict:
 
     out = {"n": n, "k": k, "ticks": data["ticks"], "samples": len(mono), "load1": os.getloadavg()[0],
            "call_ms": dist((np.array(mono) - c) * 1e3), "error_ms": dist((np.array(delays) - c) * 1e3),
-           "problems": bench.check_run(data, n, data["ticks"])}
+           "problems": bench.check_run(data, n, data["ticks"]),
+           "deliveries_per_tick": data["world"]["deliveries"] / max(1, data["ticks"]),
+           # the world's process (with the robots when K = 0), from the end of the first tick to that of the last
+           "world_cpu_ms_per_tick": ((marks[-1][1] - marks[0][1]) * 1e3 / max(1, marks[-1][0] - marks[0][0])
+                                     if len(marks) > 1 else None)}
     if parts:
         p = np.array(parts) * 1e3  # ms after the broadcast call: scheduled, arrived, woke, handed, on_frame
         due = c * 1e3
@@ -84,6 +95,77 @@ def one(n: int, k: int, seconds: float) -> dict:
     return out
 
 
+def floor(n_host: int, per_robot: float, repeats: int = 5) -> dict:
+    """CPU cost of one realtime host's work per tick, in this process, no Zenoh: ``n_host`` probe robots.
+
+    A tick's deliveries for the host (``per_robot`` each, random senders) are handed over in one burst (the
+    host's ``_deliver``, as if all fell due at once), the same frames' ``on_frame`` calls are made alone, the
+    host steps its robots once (``_rt_tick``, each robot's frame encoded and sealed for the uplink), and the
+    downlink's ``Deliveries`` message is decoded. Medians of ``repeats``, CPU time of this thread.
+    """
+    import asyncio
+    import time
+
+    import numpy as np
+
+    sys.path.insert(0, str(HERE))
+    from swarmactors.behavior import Frame
+    from swarmactors.host import RobotHost
+    from transport import Keys, pack
+    from transport.messages import Deliveries, Delivery, Downlink, Inputs, RobotDescr, RobotIn, RunInfo, decode, encode
+
+    class NoLink:  # the uplink's bytes are built (encoded, sealed) and then dropped
+        def publish(self, key, data, reliable=True):
+            pass
+
+    rng = np.random.default_rng(1)
+    d_total = int(round(n_host * per_robot))
+    out: dict[str, list[float]] = {"handover_ms": [], "on_frame_only_ms": [], "step_ms": [], "decode_ms": []}
+    cpu = time.thread_time
+
+    async def once() -> None:
+        host = RobotHost(NoLink(), Keys("floor"), allow=("latency_probe",))
+        host.name, host.key = "h1", b"k" * 32
+        host.run_info = RunInfo("realtime", 0.05, 1, 100, 5.0, 0)
+        for i in range(n_host):
+            host._adopt(RobotDescr(i, [float(i), 0.0, 0.0], [{"use": "latency_probe:LatencyProbe"}], "r", 10.0,
+                                   5.0, 1.0))
+        host._stopped, host._epoch, host._loop, host.tick = asyncio.Event(), time.time(), asyncio.get_running_loop(), 0
+        host._rt_next = None
+        now = time.time()
+        dst = rng.integers(0, n_host, d_total)
+        src = rng.integers(0, 2 * n_host, d_total)
+        items = [Delivery(int(d), int(s), "PROBE", 1, pack([0.0, time.monotonic(), now]), 0.0, None, now)
+                 for d, s in zip(np.sort(dst), src, strict=True)]
+        wire = encode(Deliveries(items))
+        t = cpu()
+        decode(wire, Downlink, what="floor")
+        out["decode_ms"].append((cpu() - t) * 1e3)
+        t = cpu()
+        host._deliver(items)
+        out["handover_ms"].append((cpu() - t) * 1e3)
+        robots = host.robots
+        frames = [(robots[d.dst], Frame(d.src, d.kind, [0.0, 0.0, 0.0], d.seq, d.sent)) for d in items]
+        t = cpu()
+        for robot, f in frames:
+            robot.behaviors[0].on_frame(robot.ctx, f)
+        out["on_frame_only_ms"].append((cpu() - t) * 1e3)
+        msg = Inputs(1, 0.0, [RobotIn(i, [float(i), 0.0, 0.0], ([], []), []) for i in range(n_host)], epoch=now)
+        t = cpu()
+        host._rt_tick(msg, 0, to_end=True)
+        out["step_ms"].append((cpu() - t) * 1e3)
+
+    for _ in range(repeats):
+        asyncio.run(once())
+    res = {"robots": n_host, "deliveries": d_total, "repeats": repeats}
+    for key, vals in out.items():
+        res[key] = round(statistics.median(vals), 3)
+    res["handover_us_per_delivery"] = round(res["handover_ms"] * 1e3 / d_total, 3)
+    res["on_frame_us_per_delivery"] = round(res["on_frame_only_ms"] * 1e3 / d_total, 3)
+    res["step_us_per_robot"] = round(res["step_ms"] * 1e3 / n_host, 3)
+    return res
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seconds", type=float, default=6.0)
@@ -93,10 +175,18 @@ def main() -> None:
     ap.add_argument("--tree", action="append", default=[], help="NAME=PATH: a source tree to compare (A/B)")
     ap.add_argument("--env", action="append", default=[], help="NAME:VAR=VALUE: an environment setting per tree")
     ap.add_argument("--out", default=str(HERE / "results" / "realtime_latency.json"))
+    ap.add_argument("--floor", action="store_true", help="only the host's CPU cost per tick (no Zenoh)")
     ap.add_argument("--one", nargs=3, type=float, metavar=("N", "K", "SECONDS"), help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.one:
         print(json.dumps(one(int(args.one[0]), int(args.one[1]), args.one[2])))
+        return
+    if args.floor:
+        rows = [floor(n, 7.43) for n in (50, 100, 500, 1000)]
+        for r in rows:
+            print(json.dumps(r))
+        path = Path(args.out).with_name("realtime_floor.json")
+        path.write_text(json.dumps({"load1": os.getloadavg()[0], "floor": rows}, indent=2) + "\n")
         return
     if args.only:
         configs = [tuple(int(x) for x in c.split("x")) for c in args.only.split(",")]
