@@ -157,6 +157,7 @@ class World:
         self.interrupted = False  # stopped by a signal: reports are awaited INTERRUPT_REPORTS_S at most
         if isinstance(self.clock, RealtimeClock):
             self.clock.on_due = self._rt_deliver
+        self._rt_pending: list[tuple[str, Uplink]] = []  # realtime: uplinks received, not taken yet
         # this tick's reach (world/sensing.py) and sensing
         self._reach: Reach = reach(np.zeros((0, self.dims)), np.zeros(0, dtype=np.int64), np.zeros(0))
         self._sensed: dict[int, tuple] = {}
@@ -518,7 +519,22 @@ class World:
         if self.lockstep:
             self._step(host, entry, msg)
             return
-        self._take(host, msg)
+        self._rt_pending.append((host, msg))
+        if len(self._rt_pending) == 1:
+            asyncio.get_running_loop().call_soon(self._rt_take_pending)
+
+    def _rt_take_pending(self) -> None:
+        """Realtime: the uplinks that arrived while the loop was busy, taken together, in arrival order.
+
+        Their frames go to the radio as one batch: one decision and one ``Deliveries`` message per receiving
+        host instead of one per uplink. An uplink that finds the loop idle is taken at once, alone.
+        """
+        pending, self._rt_pending = self._rt_pending, []
+        frames: list[Outgoing] = []
+        for host, msg in pending:
+            self._take(host, msg, frames)
+        if frames:
+            self._transmit(frames)
 
     def _decode_up(self, host: str, payload: bytes) -> Uplink | None:
         """Verify (per-host key) and decode an uplink; count and return None when it is bad."""
@@ -534,8 +550,11 @@ class World:
             self.record.malformed(None, str(exc))
             return None
 
-    def _take(self, host: str, msg: Uplink) -> None:
-        """Step 4: a host's reports (at the end) and its robots' outputs; the radio takes the frames."""
+    def _take(self, host: str, msg: Uplink, frames: list[Outgoing] | None = None) -> None:
+        """Step 4: a host's reports (at the end) and its robots' outputs; the radio takes the frames.
+
+        ``frames`` (realtime): gather the frames there instead, for one radio decision with other uplinks'.
+        """
         if msg.reports is not None and not self.lockstep:
             self._take_reports(host, msg.reports)
         if not msg.robots:
@@ -556,7 +575,10 @@ class World:
             self.robots.status[rid].update(changes)
             self.record.status(rid, changes)
         if got.frames:
-            self._transmit(got.frames)
+            if frames is None:
+                self._transmit(got.frames)
+            else:
+                frames.extend(got.frames)
 
     def _take_reports(self, host: str, reports: dict[int, Any]) -> None:
         for rid, rep in reports.items():
