@@ -29,6 +29,7 @@ Used by ``benchmarks/bench.py`` as ``use = "latency_probe:LatencyProbe"`` with
 from __future__ import annotations
 
 import time
+from array import array
 
 from swarmactors import Behavior
 from swarmactors import host as _host
@@ -47,7 +48,9 @@ class LatencyProbe(Behavior):
         self.delays: list[float] = []
         self.uplink: list[float] = []
         self.delays_mono: list[float] = []  # from the broadcast call to on_frame, on time.monotonic()
-        self.parts: list[list[float]] = []  # per delivery with stamps: scheduled, arrived, woke, handed, on_frame
+        # per delivery with stamps: scheduled, arrived, woke, handed, on_frame (flat arrays: no object per sample,
+        # so that the garbage collector, which would then have more to scan, does not change what is measured)
+        self.parts = tuple(array("d") for _ in range(5))
 
     def on_tick(self, ctx, sensed) -> None:
         self.sent += 1
@@ -65,8 +68,12 @@ class LatencyProbe(Behavior):
             if arrived is not None:
                 woke, handed, epoch = _host.RT_BATCH
                 call = frame.body[2]
-                self.parts.append((epoch + frame.sent - call, arrived - call, (woke or handed) - call,
-                                   handed - call, time.time() - call))
+                sched, arr, wk, hand, called = self.parts
+                sched.append(epoch + frame.sent - call)
+                arr.append(arrived - call)
+                wk.append((woke or handed) - call)
+                hand.append(handed - call)
+                called.append(time.time() - call)
 
     def report(self) -> dict:
         return {
@@ -74,5 +81,5 @@ class LatencyProbe(Behavior):
             "delays": [round(d, 7) for d in self.delays],
             "uplink": [round(d, 7) for d in self.uplink],
             "delays_mono": [round(d, 7) for d in self.delays_mono],
-            "parts": [[round(x, 7) for x in p] for p in self.parts],
+            "parts": [[round(x, 7) for x in row] for row in zip(*self.parts, strict=True)],
         }
