@@ -35,6 +35,8 @@ from swarmactors import Behavior
 from swarmactors import host as _host
 
 KIND = "PROBE"
+# resolved once: a tree without the stamps (an A/B baseline) must not pay a failing getattr per frame
+_STAMPS = getattr(_host, "RT_STAMPS", None)
 
 
 class LatencyProbe(Behavior):
@@ -62,9 +64,8 @@ class LatencyProbe(Behavior):
         self.uplink.append(frame.sent - sent)
         if len(frame.body) > 1:
             self.delays_mono.append(time.monotonic() - frame.body[1])
-        stamps = getattr(_host, "RT_STAMPS", None)
-        if stamps is not None and len(frame.body) > 2:
-            arrived = stamps.get((frame.src, frame.seq))
+        if _STAMPS is not None and len(frame.body) > 2:
+            arrived = _STAMPS.get((frame.src, frame.seq))
             if arrived is not None:
                 woke, handed, epoch = _host.RT_BATCH
                 call = frame.body[2]
