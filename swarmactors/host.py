@@ -699,7 +699,7 @@ class RobotHost:
     def _deliver(self, items: list[Delivery], woke: float = 0.0) -> None:
         """Realtime: hand frames whose due time has come to their robots (one batch per robot).
 
-        ``woke``: when the precise timer's thread took them (or they arrived already due); benchmarks only.
+        ``woke``: when the timer fired for them (or they arrived already due); for the benchmarks' stamps only.
         """
         if self._stopped.is_set():
             return

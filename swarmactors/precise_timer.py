@@ -1,10 +1,16 @@
 """Sub-millisecond timers for realtime deliveries.
 
 asyncio's timers wake through ``epoll_wait``, whose timeout is whole milliseconds: a delivery due at t fires up
-to a millisecond later. This timer waits on its own thread with ``threading.Condition.wait`` (a futex with a
-microsecond timeout), then hands the due items to the event loop with ``call_soon_threadsafe``, which wakes the
-loop at once. Rule: an item is never handed over before its due time (wall clock, ``time.time()``); every item
-due when the thread wakes goes to the loop in one batch.
+to a millisecond later. Two ways past that, both with one rule: an item is never handed over before its due time
+(wall clock, ``time.time()``), and every item due when the timer fires goes to ``on_due`` in one batch.
+
+* ``precise_loop`` + ``LoopTimer`` (what a realtime host uses): the loop's selector is wrapped so that it waits
+  on the epoll descriptor with ``select(2)`` (a microsecond timeout) and then collects the events without
+  waiting; the items are ordinary loop timers. One wake-up per due time, no thread. With K = 0 (robots in the
+  world's process) the loop is the world's too, whose own timers then also wake on time.
+* ``PreciseTimer``: a thread that waits with ``threading.Condition.wait`` (a futex with a microsecond timeout)
+  and hands the due items to the loop with ``call_soon_threadsafe``. Used where the loop cannot be wrapped, or
+  with ``SWARMACTORS_RT_TIMER=thread``; it costs a second wake-up and a GIL hand-off per batch.
 """
 
 from __future__ import annotations

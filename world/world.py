@@ -77,6 +77,18 @@ INTERRUPT_REPORTS_S = 5.0  # an interrupted run waits at most this long for its 
 MAX_BACKDATE_S = 0.05  # realtime: a frame's latency runs from at most this long before the world received it
 
 
+def bucket_groups(delay: np.ndarray, now: float) -> list[np.ndarray]:
+    """Realtime bookkeeping: copies grouped by the ``clock.BUCKET_S`` bucket their due time falls in.
+
+    ``delay``: seconds after loop time ``now``; groups are index arrays into it, each in its original order. A
+    group is handed to ``RealtimeClock.after`` as one item with its longest delay, which falls in the same bucket
+    as each of its copies' or a later one: the clock never fires it before any copy's due time.
+    """
+    bucket = np.ceil((now + delay) / BUCKET_S)
+    order = np.argsort(bucket, kind="stable")
+    return np.split(order, np.flatnonzero(np.diff(bucket[order])) + 1)
+
+
 class Sink(Protocol):
     """Receives one record per tick (the trace writer is one)."""
 
@@ -673,11 +685,7 @@ class World:
         delay = due - received
         # bookkeeping: one item per bucket the clock will put its copies in (a group's longest delay lands in
         # the same bucket as every copy of it, or a later one: never before a copy's due time)
-        now = asyncio.get_running_loop().time()
-        bucket = np.ceil((now + delay) / BUCKET_S)
-        order = np.argsort(bucket, kind="stable")
-        cuts = np.flatnonzero(np.diff(bucket[order])) + 1
-        groups = np.split(order, cuts)
+        groups = bucket_groups(delay, asyncio.get_running_loop().time())
         self.clock.after([float(delay[g].max()) for g in groups],
                          [(dst[g], src[g], seq[g], heard[g], self.tick) for g in groups])
         # the deliveries, per receiving host, at once
