@@ -100,6 +100,7 @@ class _PreciseSelector:
     def __init__(self, inner: Any):
         self._inner = inner
         self._fd = inner.fileno()
+        self.users = 1  # precise_loop calls not yet undone (several hosts may share one loop)
 
     def select(self, timeout: float | None = None):
         if timeout is not None and timeout > 0:
@@ -120,6 +121,7 @@ def precise_loop(loop: asyncio.AbstractEventLoop) -> bool:
     """
     sel = getattr(loop, "_selector", None)
     if isinstance(sel, _PreciseSelector):
+        sel.users += 1
         return True
     if sel is None or not hasattr(sel, "fileno") or not hasattr(sel, "select"):
         return False
@@ -135,10 +137,12 @@ def precise_loop(loop: asyncio.AbstractEventLoop) -> bool:
 
 
 def plain_loop(loop: asyncio.AbstractEventLoop) -> None:
-    """Undo ``precise_loop``."""
+    """Undo one ``precise_loop`` call (the loop is plain again once every caller has undone its own)."""
     sel = getattr(loop, "_selector", None)
     if isinstance(sel, _PreciseSelector):
-        loop._selector = sel._inner
+        sel.users -= 1
+        if sel.users <= 0:
+            loop._selector = sel._inner
 
 
 def _low_timer_slack() -> None:
