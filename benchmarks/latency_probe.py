@@ -65,7 +65,7 @@ class LatencyProbe(Behavior):
         if len(frame.body) > 1:
             self.delays_mono.append(time.monotonic() - frame.body[1])
         if _STAMPS is not None and len(frame.body) > 2:
-            arrived = _STAMPS.get((frame.src, frame.seq))
+            arrived = _STAMPS.get((frame.src << 32) | frame.seq)
             if arrived is not None:
                 woke, handed, epoch = _host.RT_BATCH
                 call = frame.body[2]

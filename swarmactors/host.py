@@ -69,10 +69,11 @@ RT_SWITCH_INTERVAL_S = 0.0002
 # that posts to the loop (precise_timer.PreciseTimer). Benchmarks compare the two with SWARMACTORS_RT_TIMER.
 RT_TIMER = os.environ.get("SWARMACTORS_RT_TIMER", "loop")
 # Benchmarks only (benchmarks/latency_probe.py): with SWARMACTORS_RT_STAMPS=1 a realtime host records, per frame
-# (src, seq), the wall time (time.time()) at which its downlink reached the loop, and in RT_BATCH, for the
-# hand-over under way, when the timer woke for it, when the loop began it, and the run's epoch. Cheap on purpose
-# (one dict entry per frame and message, three numbers per hand-over), so as not to change what it measures.
-RT_STAMPS: dict[tuple[int, int], float] | None = {} if os.environ.get("SWARMACTORS_RT_STAMPS") == "1" else None
+# (key src << 32 | seq: an int, no tuple for the garbage collector to track), the wall time (time.time()) at which
+# its downlink reached the loop, and in RT_BATCH, for the hand-over under way, when the timer fired for it, when
+# the loop began it, and the run's epoch. Cheap on purpose (one dict entry per frame and message, three numbers
+# per hand-over), so as not to change what it measures.
+RT_STAMPS: dict[int, float] | None = {} if os.environ.get("SWARMACTORS_RT_STAMPS") == "1" else None
 RT_BATCH = [0.0, 0.0, 0.0]
 
 
@@ -644,7 +645,7 @@ class RobotHost:
         if isinstance(msg, Deliveries):
             now = time.time()
             if RT_STAMPS is not None:
-                RT_STAMPS.update(((d.src, d.seq), now) for d in msg.items)
+                RT_STAMPS.update(((d.src << 32) | d.seq, now) for d in msg.items)
             due_now = [d for d in msg.items if d.due is None or d.due <= now]
             for d in msg.items:
                 if d.due is not None and d.due > now:
