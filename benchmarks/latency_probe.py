@@ -16,6 +16,12 @@ before the world scheduled the delivery (the robot host's flush and the uplink
 to the world); the rest is the radio's latency c plus the world's timer
 lateness and the downlink.
 
+With ``SWARMACTORS_RT_STAMPS=1`` in every process's environment (realtime hosts then keep stamps,
+``swarmactors.host.RT_STAMPS`` and ``RT_BATCH``) it also records, per delivery, the wall times
+(``time.time()``, seconds after the broadcast call) at which the world scheduled it (``frame.sent``), its
+downlink reached the receiving host's loop, the host's timer woke for it, the loop began handing it over, and
+``on_frame`` was called: ``parts``.
+
 Used by ``benchmarks/bench.py`` as ``use = "latency_probe:LatencyProbe"`` with
 ``benchmarks/`` on ``sys.path``.
 """
@@ -23,10 +29,14 @@ Used by ``benchmarks/bench.py`` as ``use = "latency_probe:LatencyProbe"`` with
 from __future__ import annotations
 
 import time
+from array import array
 
 from swarmactors import Behavior
+from swarmactors import host as _host
 
 KIND = "PROBE"
+# resolved once: a tree without the stamps (an A/B baseline) must not pay a failing getattr per frame
+_STAMPS = getattr(_host, "RT_STAMPS", None)
 
 
 class LatencyProbe(Behavior):
@@ -40,10 +50,13 @@ class LatencyProbe(Behavior):
         self.delays: list[float] = []
         self.uplink: list[float] = []
         self.delays_mono: list[float] = []  # from the broadcast call to on_frame, on time.monotonic()
+        # per delivery with stamps: scheduled, arrived, woke, handed, on_frame (flat arrays: no object per sample,
+        # so that the garbage collector, which would then have more to scan, does not change what is measured)
+        self.parts = tuple(array("d") for _ in range(5))
 
     def on_tick(self, ctx, sensed) -> None:
         self.sent += 1
-        ctx.broadcast(KIND, [ctx.now, time.monotonic()])
+        ctx.broadcast(KIND, [ctx.now, time.monotonic(), time.time()])
 
     def on_frame(self, ctx, frame) -> None:
         sent = frame.body[0]
@@ -51,6 +64,17 @@ class LatencyProbe(Behavior):
         self.uplink.append(frame.sent - sent)
         if len(frame.body) > 1:
             self.delays_mono.append(time.monotonic() - frame.body[1])
+        if _STAMPS is not None and len(frame.body) > 2:
+            arrived = _STAMPS.get((frame.src << 32) | frame.seq)
+            if arrived is not None:
+                woke, handed, epoch = _host.RT_BATCH
+                call = frame.body[2]
+                sched, arr, wk, hand, called = self.parts
+                sched.append(epoch + frame.sent - call)
+                arr.append(arrived - call)
+                wk.append((woke or handed) - call)
+                hand.append(handed - call)
+                called.append(time.time() - call)
 
     def report(self) -> dict:
         return {
@@ -58,4 +82,5 @@ class LatencyProbe(Behavior):
             "delays": [round(d, 7) for d in self.delays],
             "uplink": [round(d, 7) for d in self.uplink],
             "delays_mono": [round(d, 7) for d in self.delays_mono],
+            "parts": [[round(x, 7) for x in row] for row in zip(*self.parts, strict=True)],
         }

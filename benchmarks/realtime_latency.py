@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """How far realtime deliveries land from the radio's latency c (issue 22).
 
-    python benchmarks/realtime_latency.py [--seconds 6] [--repeats 3] [--big]
+    python benchmarks/realtime_latency.py [--seconds 6] [--repeats 3] [--big] [--tree A=/path --tree B=/path]
 
 Beacon robots with ``benchmarks/latency_probe.py`` in the realtime clock, dt = 50 ms, c = 10 ms (c_min = c):
 every robot broadcasts each tick and every receiver records ``on_frame`` time minus the sender's
@@ -12,26 +12,158 @@ N = 1000 with K = 2 with ``--big``), median over ``--repeats`` interleaved runs 
   (the target's measure; never negative: a frame delivered before c is a defect);
 * ``error`` (step clock): the same on ``ctx.now``, which is fixed for a host's whole step or batch, so it also
   counts the robots stepped before the sender and the frames handed over before this one;
-* ``uplink``: from the broadcast call to the world receiving the frame (``frame.sent`` - sent). Since the latency
-  runs from the broadcast call, the uplink, the world's decision and the downlink all happen inside c; what is
-  left in ``error`` is the receiving host's lateness in handing the frame over at its due time.
+* the split of each delivery (hosts run with ``SWARMACTORS_RT_STAMPS=1``, on ``time.time()``, ms):
+  ``uplink`` broadcast call -> the world scheduled the delivery (the sender's host, Zenoh, the world's loop and
+  radio); ``downlink`` -> the receiving host's loop took the downlink (the world's encoding, Zenoh, the host's
+  loop wait); ``slack`` = due time - arrival (negative: it arrived late); ``timer`` -> the precise timer's thread
+  woke, minus the due time (or the arrival, when later); ``loop`` -> the loop began handing it over (the host's
+  loop busy with something else); ``queue`` -> ``on_frame`` was called (frames of the same hand-over before it).
+  ``late`` = on_frame - due = (arrived late) + timer + loop + queue.
 
-Raw Zenoh's round trip on this machine is measured in ``benchmarks/bench.py`` (docs/benchmarks.md).
-Results: benchmarks/results/realtime_latency.json. Nothing is asserted but "never early".
+Each run is its own process (``--one``), so that ``--tree NAME=PATH`` can put another source tree first on
+``PYTHONPATH`` for an A/B comparison in one interleaved run (the measuring code is always this file's). The
+1-minute load average is recorded before every run. Results: benchmarks/results/realtime_latency.json (or
+``--out``). Nothing is asserted but "never early".
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import statistics
+import subprocess
 import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
+ROOT = HERE.parent
+PARTS = ("uplink", "downlink", "slack", "timer", "loop", "queue", "late")
 
-import bench_measure as bench  # noqa: E402  (benchmarks/ is not a package)
+
+def one(n: int, k: int, seconds: float) -> dict:
+    """One run in this process (hosts inherit the stamps switch); percentiles of every measure."""
+    os.environ.setdefault("SWARMACTORS_RT_STAMPS", "1")
+    sys.path.insert(0, str(HERE))
+    import bench_measure as bench  # (benchmarks/ is not a package; imported after the switch is set)
+    import numpy as np
+
+    c = bench.REALTIME_C
+    import time
+
+    marks: list[tuple[int, float]] = []  # (tick, process CPU) at each tick's end: the world's CPU while ticking
+
+    def on_tick(world) -> None:
+        marks.append((world.tick, time.process_time()))
+
+    data, _ = bench.run_emulator(bench.realtime_scenario(n, seconds), k, on_tick=on_tick)
+    delays, mono, parts = [], [], []
+    for r in data["robots"].values():
+        rep = r.get("latency_probe") or {}
+        delays += rep.get("delays", [])
+        mono += rep.get("delays_mono", [])
+        parts += rep.get("parts", [])
+
+    def dist(a) -> dict:
+        a = np.asarray(a, dtype=float)
+        if not a.size:
+            return {}
+        q = np.percentile(a, [50, 90, 99, 99.9])
+        return {"p50": float(q[0]), "p90": float(q[1]), "p99": float(q[2]), "p999": float(q[3]),
+                "max": float(a.max()), "min": float(a.min())}
+
+    out = {"n": n, "k": k, "ticks": data["ticks"], "samples": len(mono), "load1": os.getloadavg()[0],
+           "call_ms": dist((np.array(mono) - c) * 1e3), "error_ms": dist((np.array(delays) - c) * 1e3),
+           "problems": bench.check_run(data, n, data["ticks"]),
+           "deliveries_per_tick": data["world"]["deliveries"] / max(1, data["ticks"]),
+           # the world's process (with the robots when K = 0), from the end of the first tick to that of the last
+           "world_cpu_ms_per_tick": ((marks[-1][1] - marks[0][1]) * 1e3 / max(1, marks[-1][0] - marks[0][0])
+                                     if len(marks) > 1 else None)}
+    if parts:
+        p = np.array(parts) * 1e3  # ms after the broadcast call: scheduled, arrived, woke, handed, on_frame
+        due = c * 1e3
+        sched, arr, woke, handed, call = p.T
+        out["stamped"] = len(p)
+        split = {"uplink": sched, "downlink": arr - sched, "slack": due - arr,
+                 "timer": woke - np.maximum(due, arr), "loop": handed - woke, "queue": call - handed,
+                 "late": call - due}
+        for name, a in split.items():
+            out[f"{name}_ms"] = dist(a)
+        out["arrived_late_share"] = float((arr > due).mean())
+        tail = split["late"] >= np.percentile(split["late"], 99)  # what the worst 1 % is made of (means, ms)
+        out["tail_ms"] = {name: float(a[tail].mean()) for name, a in split.items()}
+    return out
+
+
+def floor(n_host: int, per_robot: float, repeats: int = 5) -> dict:
+    """CPU cost of one realtime host's work per tick, in this process, no Zenoh: ``n_host`` probe robots.
+
+    A tick's deliveries for the host (``per_robot`` each, random senders) are handed over in one burst (the
+    host's ``_deliver``, as if all fell due at once), the same frames' ``on_frame`` calls are made alone, the
+    host steps its robots once (``_rt_tick``, each robot's frame encoded and sealed for the uplink), and the
+    downlink's ``Deliveries`` message is decoded. Medians of ``repeats``, CPU time of this thread.
+    """
+    import asyncio
+    import time
+
+    import numpy as np
+
+    sys.path.insert(0, str(HERE))
+    from swarmactors.behavior import Frame
+    from swarmactors.host import RobotHost
+    from transport import Keys, pack
+    from transport.messages import Deliveries, Delivery, Downlink, Inputs, RobotDescr, RobotIn, RunInfo, decode, encode
+
+    class NoLink:  # the uplink's bytes are built (encoded, sealed) and then dropped
+        def publish(self, key, data, reliable=True):
+            pass
+
+    rng = np.random.default_rng(1)
+    d_total = int(round(n_host * per_robot))
+    out: dict[str, list[float]] = {"handover_ms": [], "on_frame_only_ms": [], "step_ms": [], "decode_ms": []}
+    cpu = time.thread_time
+
+    async def once() -> None:
+        host = RobotHost(NoLink(), Keys("floor"), allow=("latency_probe",))
+        host.name, host.key = "h1", b"k" * 32
+        host.run_info = RunInfo("realtime", 0.05, 1, 100, 5.0, 0)
+        for i in range(n_host):
+            host._adopt(RobotDescr(i, [float(i), 0.0, 0.0], [{"use": "latency_probe:LatencyProbe"}], "r", 10.0,
+                                   5.0, 1.0))
+        host._stopped, host._epoch, host._loop, host.tick = asyncio.Event(), time.time(), asyncio.get_running_loop(), 0
+        host._rt_next = None
+        now = time.time()
+        dst = rng.integers(0, n_host, d_total)
+        src = rng.integers(0, 2 * n_host, d_total)
+        items = [Delivery(int(d), int(s), "PROBE", 1, pack([0.0, time.monotonic(), now]), 0.0, None, now)
+                 for d, s in zip(np.sort(dst), src, strict=True)]
+        wire = encode(Deliveries(items))
+        t = cpu()
+        decode(wire, Downlink, what="floor")
+        out["decode_ms"].append((cpu() - t) * 1e3)
+        t = cpu()
+        host._deliver(items)
+        out["handover_ms"].append((cpu() - t) * 1e3)
+        robots = host.robots
+        frames = [(robots[d.dst], Frame(d.src, d.kind, [0.0, 0.0, 0.0], d.seq, d.sent)) for d in items]
+        t = cpu()
+        for robot, f in frames:
+            robot.behaviors[0].on_frame(robot.ctx, f)
+        out["on_frame_only_ms"].append((cpu() - t) * 1e3)
+        msg = Inputs(1, 0.0, [RobotIn(i, [float(i), 0.0, 0.0], ([], []), []) for i in range(n_host)], epoch=now)
+        t = cpu()
+        host._rt_tick(msg, 0, to_end=True)
+        out["step_ms"].append((cpu() - t) * 1e3)
+
+    for _ in range(repeats):
+        asyncio.run(once())
+    res = {"robots": n_host, "deliveries": d_total, "repeats": repeats}
+    for key, vals in out.items():
+        res[key] = round(statistics.median(vals), 3)
+    res["handover_us_per_delivery"] = round(res["handover_ms"] * 1e3 / d_total, 3)
+    res["on_frame_us_per_delivery"] = round(res["on_frame_only_ms"] * 1e3 / d_total, 3)
+    res["step_us_per_robot"] = round(res["step_ms"] * 1e3 / n_host, 3)
+    return res
 
 
 def main() -> None:
@@ -39,26 +171,72 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=6.0)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--big", action="store_true", help="also N = 1000, K = 2")
+    ap.add_argument("--only", default="", help="configurations, e.g. '100x2,1000x2' (default: 100x0,100x2)")
+    ap.add_argument("--tree", action="append", default=[], help="NAME=PATH: a source tree to compare (A/B)")
+    ap.add_argument("--env", action="append", default=[], help="NAME:VAR=VALUE: an environment setting per tree")
+    ap.add_argument("--out", default=str(HERE / "results" / "realtime_latency.json"))
+    ap.add_argument("--floor", action="store_true", help="only the host's CPU cost per tick (no Zenoh)")
+    ap.add_argument("--one", nargs=3, type=float, metavar=("N", "K", "SECONDS"), help=argparse.SUPPRESS)
     args = ap.parse_args()
-    configs = [(100, 0), (100, 2)] + ([(1000, 2)] if args.big else [])
-    runs: dict[str, list[dict]] = {f"N={n} K={k}": [] for n, k in configs}
-    for _ in range(args.repeats):
-        for n, k in configs:  # interleaved
-            runs[f"N={n} K={k}"].append(bench.realtime_case(n, k, args.seconds))
-    out = {"machine": bench.machine(), "seconds": args.seconds, "repeats": args.repeats, "c_ms": 10.0, "cases": {}}
+    if args.one:
+        print(json.dumps(one(int(args.one[0]), int(args.one[1]), args.one[2])))
+        return
+    if args.floor:
+        rows = [floor(n, 7.43) for n in (50, 100, 500, 1000)]
+        for r in rows:
+            print(json.dumps(r))
+        path = Path(args.out).with_name("realtime_floor.json")
+        path.write_text(json.dumps({"load1": os.getloadavg()[0], "floor": rows}, indent=2) + "\n")
+        return
+    if args.only:
+        configs = [tuple(int(x) for x in c.split("x")) for c in args.only.split(",")]
+    else:
+        configs = [(100, 0), (100, 2)] + ([(1000, 2)] if args.big else [])
+    trees = [t.split("=", 1) for t in args.tree] or [["this", str(ROOT)]]
+    extra: dict[str, dict[str, str]] = {}
+    for e in args.env:
+        name, kv = e.split(":", 1)
+        var, val = kv.split("=", 1)
+        extra.setdefault(name, {})[var] = val
+    runs: dict[str, list[dict]] = {}
+    for rep in range(args.repeats):
+        for n, k in configs:
+            for name, path in trees:  # interleaved: every tree once per configuration and repeat
+                env = dict(os.environ, PYTHONPATH=str(Path(path).resolve()), **extra.get(name, {}))
+                res = subprocess.run([sys.executable, __file__, "--one", str(n), str(k), str(args.seconds)],
+                                     env=env, capture_output=True, text=True, check=False)
+                if res.returncode:
+                    sys.exit(f"run {name} N={n} K={k} failed:\n{res.stderr[-3000:]}")
+                r = json.loads(res.stdout.strip().splitlines()[-1])
+                runs.setdefault(f"{name} N={n} K={k}", []).append(r)
+                print(f"[{rep}] {name:6s} N={n:<4d} K={k}  load {r['load1']:.2f}  call p50 "
+                      f"{r['call_ms'].get('p50', 0):6.3f}  p99 {r['call_ms'].get('p99', 0):6.3f}  min "
+                      f"{r['call_ms'].get('min', 0):6.3f} ms  {r['problems'] or ''}", flush=True)
+    out = {"seconds": args.seconds, "repeats": args.repeats, "c_ms": 10.0, "trees": dict(trees),
+           "env": extra, "cases": {}, "runs": runs}
     for name, rs in runs.items():
         case = {"samples": sum(r["samples"] for r in rs),
                 "never_early": all(r["call_ms"].get("min", 0.0) >= 0.0 for r in rs),
-                "min_error_ms": min(r["call_ms"].get("min", 0.0) for r in rs)}
-        for part in ("call_ms", "error_ms", "uplink_ms"):
+                "min_ms": min(r["call_ms"].get("min", 0.0) for r in rs),
+                "load1": [round(r["load1"], 2) for r in rs]}
+        for part in ("call", "error") + PARTS:
             for q in ("p50", "p99"):
-                case[f"{part[:-3]}_{q}_ms"] = round(statistics.median(r[part][q] for r in rs), 3)
+                vals = [r[f"{part}_ms"][q] for r in rs if r.get(f"{part}_ms")]
+                if vals:
+                    case[f"{part}_{q}_ms"] = round(statistics.median(vals), 3)
+                    case[f"{part}_{q}_range"] = [round(min(vals), 3), round(max(vals), 3)]
         out["cases"][name] = case
-        print(f"{name:12s} call-to-call p50 {case['call_p50_ms']:6.3f} ms  p99 {case['call_p99_ms']:6.3f} ms   "
-              f"step clock p50 {case['error_p50_ms']:6.3f}  p99 {case['error_p99_ms']:6.3f}   "
-              f"uplink p50 {case['uplink_p50_ms']:6.3f}  p99 {case['uplink_p99_ms']:6.3f}   "
-              f"min {case['min_error_ms']:.3f}  ({case['samples']} samples)")
-    path = HERE / "results" / "realtime_latency.json"
+        print(f"{name:18s} call p50 {case['call_p50_ms']:6.3f} {case['call_p50_range']}  "
+              f"p99 {case['call_p99_ms']:6.3f} {case['call_p99_range']}"
+              f"  min {case['min_ms']:.3f}  load {case['load1']}")
+        if "late_p50_ms" in case:
+            print("    p50/p99 " + "  ".join(f"{p} {case.get(f'{p}_p50_ms', 0):.3f}/{case.get(f'{p}_p99_ms', 0):.3f}"
+                                               for p in PARTS))
+            tails = [r["tail_ms"] for r in rs if "tail_ms" in r]
+            print("    worst 1 %, mean " + "  ".join(f"{p} {statistics.median(t[p] for t in tails):.3f}"
+                                                    for p in PARTS)
+                  + f"  arrived late {statistics.median(r['arrived_late_share'] for r in rs if 'stamped' in r):.4f}")
+    path = Path(args.out)
     path.parent.mkdir(exist_ok=True)
     path.write_text(json.dumps(out, indent=2) + "\n")
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 import asyncio
 import inspect
 import logging
+import os
 import sys
 import time
 import traceback
@@ -30,7 +31,7 @@ import numpy as np
 from swarmactors.behavior import Behavior, Context, Frame, Sensed
 from swarmactors.knownmap import KnownMap
 from swarmactors.plugins import RefusedBehavior, resolve_behavior
-from swarmactors.precise_timer import PreciseTimer
+from swarmactors.precise_timer import LoopTimer, PreciseTimer, plain_loop, precise_loop
 from swarmactors.robot_clock import robot_clock
 from swarmactors.tasks import TaskSet
 from transport import Keys, Link, MalformedMessage, pack, seal, unseal
@@ -63,6 +64,17 @@ RT_SLICED_UP_TO = 256
 # realtime, same hosts: how long the thread holding the GIL keeps it when another thread waits (Python's default
 # is 5 ms; the precise timer's thread and Zenoh's callback threads need it to hand frames over on time)
 RT_SWITCH_INTERVAL_S = 0.0002
+# realtime: how a host waits for a delivery's due time: "loop", the event loop's own timers made precise
+# (precise_timer.precise_loop; falls back to "thread" on a loop it cannot change), or "thread", a timer thread
+# that posts to the loop (precise_timer.PreciseTimer). Benchmarks compare the two with SWARMACTORS_RT_TIMER.
+RT_TIMER = os.environ.get("SWARMACTORS_RT_TIMER", "loop")
+# Benchmarks only (benchmarks/latency_probe.py): with SWARMACTORS_RT_STAMPS=1 a realtime host records, per frame
+# (key src << 32 | seq: an int, no tuple for the garbage collector to track), the wall time (time.time()) at which
+# its downlink reached the loop, and in RT_BATCH, for the hand-over under way, when the timer fired for it, when
+# the loop began it, and the run's epoch. Cheap on purpose (one dict entry per frame and message, three numbers
+# per hand-over), so as not to change what it measures.
+RT_STAMPS: dict[int, float] | None = {} if os.environ.get("SWARMACTORS_RT_STAMPS") == "1" else None
+RT_BATCH = [0.0, 0.0, 0.0]
 
 
 class WorldLost(RuntimeError):
@@ -587,7 +599,9 @@ class RobotHost:
         self._tasks = TaskSet(f"host {self.name}", on_error=_unless_timeout)
         self._loop = asyncio.get_running_loop()
         self._rt_next: tuple[Inputs, int] | None = None  # the tick being stepped, and its next robot's index
-        self._timer = PreciseTimer(self._loop, self._deliver, self.name)
+        precise = RT_TIMER == "loop" and precise_loop(self._loop)
+        self._timer = (LoopTimer(self._loop, self._deliver, stamped=RT_STAMPS is not None) if precise
+                       else PreciseTimer(self._loop, self._deliver, self.name, stamped=RT_STAMPS is not None))
         switch = sys.getswitchinterval()
         if len(self.robots) <= RT_SLICED_UP_TO:  # the timer and Zenoh threads get the GIL within this
             sys.setswitchinterval(RT_SWITCH_INTERVAL_S)
@@ -600,6 +614,8 @@ class RobotHost:
             await self._stopped.wait()
         finally:
             self._timer.close()
+            if precise:
+                plain_loop(self._loop)
             sys.setswitchinterval(switch)
         await self._tasks.close()
         await self._send_reports(uplink)
@@ -638,12 +654,14 @@ class RobotHost:
             return
         if isinstance(msg, Deliveries):
             now = time.time()
+            if RT_STAMPS is not None:
+                RT_STAMPS.update(((d.src << 32) | d.seq, now) for d in msg.items)
             due_now = [d for d in msg.items if d.due is None or d.due <= now]
             for d in msg.items:
                 if d.due is not None and d.due > now:
                     self._timer.add(d.due, d)  # handed over at its due time, never earlier
             if due_now:
-                self._deliver(due_now)
+                self._deliver(due_now, now)
             return
         if isinstance(msg, Inputs):
             if self._rt_next is not None:  # the previous tick's robots not stepped yet go first, all at once
@@ -689,28 +707,45 @@ class RobotHost:
         if self._rt_next is not None and self._rt_next[0] is msg:
             self._rt_tick(*self._rt_next)
 
-    def _deliver(self, items: list[Delivery]) -> None:
-        """Realtime: hand frames whose due time has come to their robots (one batch per robot)."""
+    def _deliver(self, items: list[Delivery], woke: float = 0.0) -> None:
+        """Realtime: hand frames whose due time has come to their robots (one batch per robot).
+
+        ``woke``: when the timer fired for them (or they arrived already due); for the benchmarks' stamps only.
+        """
         if self._stopped.is_set():
             return
-        now = self._rt_now()
-        batches: dict[int, list[Frame]] = {}
+        if RT_STAMPS is not None:
+            RT_BATCH[:] = (woke, time.time(), self._epoch or 0.0)
+        # Each robot's frames are decoded just before its hooks run, not all up front: the first robot's
+        # on_frame does not wait for the whole batch's decoding. ``ctx.now`` is read per robot.
+        robots = self.robots
+        by_robot: dict[int, list[Delivery]] = {}
         for d in items:
-            robot = self.robots.get(d.dst)
+            got = by_robot.get(d.dst)
+            if got is None:
+                by_robot[d.dst] = [d]
+            else:
+                got.append(d)
+        sliced = len(robots) <= RT_SLICED_UP_TO
+        touched = []
+        for rid, ds in by_robot.items():
+            robot = robots.get(rid)
             if robot is None or not robot.alive:
                 continue
-            frame = decode_body(FrameIn(d.src, d.kind, d.seq, d.body, d.sent), d.rab)
-            if frame is None:
-                robot.bad_bodies += 1
+            frames = []
+            for d in ds:
+                try:
+                    body = _body_decoder.decode(d.body)
+                except msgspec.DecodeError:
+                    robot.bad_bodies += 1
+                    continue
+                frames.append(Frame(d.src, d.kind, body, d.seq, d.sent, None if d.rab is None else tuple(d.rab)))
+            if not frames:
                 continue
-            batches.setdefault(d.dst, []).append(frame)
-        touched = []
-        for rid, frames in batches.items():
-            robot = self.robots[rid]
-            robot.ctx._set_time(self.tick, now)
+            robot.ctx._set_time(self.tick, self._rt_now())
             self._rt_run(robot, robot.frame_calls(frames))
             touched.append(robot)
-            if len(touched) == RT_SLICE and len(self.robots) <= RT_SLICED_UP_TO:  # sent now, not after all
+            if sliced and len(touched) == RT_SLICE:  # sent now, not after all
                 self._rt_flush(touched)
                 touched = []
         self._rt_flush(touched)
@@ -729,7 +764,9 @@ class RobotHost:
         task.add_done_callback(done)
 
     def _rt_flush(self, robots: list[Robot]) -> None:
-        rows = [r.outputs() for r in dict.fromkeys(robots)]
+        # a robot with nothing queued, no velocity, no status and no error to report is skipped at once
+        rows = [r.outputs() for r in dict.fromkeys(robots)
+                if r.ctx._outbox or r.ctx._velocity is not None or r.ctx._status or (r.error and not r.error_sent)]
         rows = [row for row in rows if row.velocity is not None or row.frames or row.status or row.error]
         if rows:
             self.link.publish(self.keys.up(self.name), self._uplink(self.tick, rows))

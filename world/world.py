@@ -59,7 +59,7 @@ from transport.messages import (
 )
 from transport.space import space_from_spec
 from world import rng
-from world.clock import LockstepClock, RealtimeClock, make_clock
+from world.clock import BUCKET_S, LockstepClock, RealtimeClock, make_clock
 from world.counters import Counters, TickRecord
 from world.faults import REQUEST_CAP, ROBOT_CAP, Faults
 from world.kinematics import MAX_COORD, bad_positions, integrate
@@ -88,6 +88,18 @@ class Due(NamedTuple):
     src: np.ndarray
     seq: np.ndarray
     frames: list[tuple[Outgoing, int]]
+
+
+def bucket_groups(delay: np.ndarray, now: float) -> list[np.ndarray]:
+    """Realtime bookkeeping: copies grouped by the ``clock.BUCKET_S`` bucket their due time falls in.
+
+    ``delay``: seconds after loop time ``now``; groups are index arrays into it, each in its original order. A
+    group is handed to ``RealtimeClock.after`` as one item with its longest delay, which falls in the same bucket
+    as each of its copies' or a later one: the clock never fires it before any copy's due time.
+    """
+    bucket = np.ceil((now + delay) / BUCKET_S)
+    order = np.argsort(bucket, kind="stable")
+    return np.split(order, np.flatnonzero(np.diff(bucket[order])) + 1)
 
 
 class Sink(Protocol):
@@ -170,6 +182,7 @@ class World:
         self.interrupted = False  # stopped by a signal: reports are awaited INTERRUPT_REPORTS_S at most
         if isinstance(self.clock, RealtimeClock):
             self.clock.on_due = self._rt_deliver
+        self._rt_pending: list[tuple[str, Uplink]] = []  # realtime: uplinks received, not taken yet
         # this tick's reach (world/sensing.py) and sensing
         self._reach: Reach = reach(np.zeros((0, self.dims)), np.zeros(0, dtype=np.int64), np.zeros(0))
         self._sensed = Sensed(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, self.dims)))
@@ -557,7 +570,22 @@ class World:
         if self.lockstep:
             self._step(host, entry, msg)
             return
-        self._take(host, msg)
+        self._rt_pending.append((host, msg))
+        if len(self._rt_pending) == 1:
+            asyncio.get_running_loop().call_soon(self._rt_take_pending)
+
+    def _rt_take_pending(self) -> None:
+        """Realtime: the uplinks that arrived while the loop was busy, taken together, in arrival order.
+
+        Their frames go to the radio as one batch: one decision and one ``Deliveries`` message per receiving
+        host instead of one per uplink. An uplink that finds the loop idle is taken at once, alone.
+        """
+        pending, self._rt_pending = self._rt_pending, []
+        frames: list[Outgoing] = []
+        for host, msg in pending:
+            self._take(host, msg, frames)
+        if frames:
+            self._transmit(frames)
 
     def _decode_up(self, host: str, payload: bytes) -> Uplink | None:
         """Verify (per-host key) and decode an uplink; count and return None when it is bad."""
@@ -573,8 +601,11 @@ class World:
             self.record.malformed(None, str(exc))
             return None
 
-    def _take(self, host: str, msg: Uplink) -> None:
-        """Step 4: a host's reports (at the end) and its robots' outputs; the radio takes the frames."""
+    def _take(self, host: str, msg: Uplink, frames: list[Outgoing] | None = None) -> None:
+        """Step 4: a host's reports (at the end) and its robots' outputs; the radio takes the frames.
+
+        ``frames`` (realtime): gather the frames there instead, for one radio decision with other uplinks'.
+        """
         if msg.reports is not None and not self.lockstep:
             self._take_reports(host, msg.reports)
         if not msg.robots:
@@ -595,7 +626,10 @@ class World:
             self.robots.status[rid].update(changes)
             self.record.status(rid, changes)
         if got.frames:
-            self._transmit(got.frames)
+            if frames is None:
+                self._transmit(got.frames)
+            else:
+                frames.extend(got.frames)
 
     def _take_reports(self, host: str, reports: dict[int, Any]) -> None:
         for rid, rep in reports.items():
@@ -623,8 +657,8 @@ class World:
             if ok.any():
                 self._due[self.tick + self.radio.latency].append((frames, out.only(ok), self.tick))
         else:
-            fr, dst, heard = out.frame[ok].tolist(), out.dst[ok].tolist(), out.overheard[ok].tolist()
-            self._schedule_realtime([(d, frames[k], h) for d, k, h in zip(dst, fr, heard, strict=True)])
+            self._schedule_realtime(frames, out.frame[ok], out.dst[ok], out.src[out.frame[ok]],
+                                    out.seq[out.frame[ok]], out.overheard[ok])
 
     def _deliver_due(self, tick: int) -> Due | None:
         """Lockstep: the deliveries of tick ``tick``, ordered by (receiver, src, seq), as arrays (``Due``).
@@ -659,8 +693,9 @@ class World:
             return None
         return Due(dst, ref, src, seq, frames)
 
-    def _schedule_realtime(self, copies: list[tuple[int, Outgoing, bool]]) -> None:
-        """Realtime: each copy ``(receiver, frame, overheard)`` is due when its drawn latency has elapsed.
+    def _schedule_realtime(self, frames: list[Outgoing], fr: np.ndarray, dst: np.ndarray, src: np.ndarray,
+                           seq: np.ndarray, heard: np.ndarray) -> None:
+        """Realtime: each copy (frame ``frames[fr[i]]`` to ``dst[i]``) is due when its drawn latency has elapsed.
 
         The latency runs from the sender's radio call (``Outgoing.at``, the sender host's wall clock), taken no
         earlier than ``MAX_BACKDATE_S`` before the world received the frame and never after it (a host cannot buy
@@ -668,44 +703,56 @@ class World:
         frame to its robot at the due time (swarmactors/precise_timer.py), never earlier; the world's own timer
         records the delivery in the trace at the same time, or a drop as ``dead`` if the receiver died
         meanwhile. An overheard copy goes to no host: only the world's timer records it.
+
+        All copies at once, as arrays: the latencies in one draw (the same values as frame by frame), and the
+        bookkeeping as one timer item per ``clock.BUCKET_S`` bucket (``_rt_deliver`` records a group's copies
+        together, with the array recorders) rather than one per copy.
         """
-        by_frame: dict[int, list[tuple[int, bool]]] = defaultdict(list)
-        frames: dict[int, Outgoing] = {}
-        for dst, f, heard in copies:
-            by_frame[id(f)].append((dst, heard))
-            frames[id(f)] = f
+        if not len(dst):
+            return
         sent_at = self.clock.now()
         received = time.time()
+        at = np.array([received if f.at is None else f.at for f in frames])
+        start = np.minimum(received, np.maximum(at, received - MAX_BACKDATE_S))[fr]
+        due = start + self.medium.latencies_s(self.tick, src, seq, dst)
+        delay = due - received
+        # bookkeeping: one item per bucket the clock will put its copies in (a group's longest delay lands in
+        # the same bucket as every copy of it, or a later one: never before a copy's due time)
+        groups = bucket_groups(delay, asyncio.get_running_loop().time())
+        self.clock.after([float(delay[g].max()) for g in groups],
+                         [(dst[g], src[g], seq[g], heard[g], self.tick) for g in groups])
+        # the deliveries, per receiving host, at once
+        hosts = self.robots.host
+        rab = self.situated.rab
         out: dict[str, list[Delivery]] = defaultdict(list)
-        for key, dsts in by_frame.items():
-            f = frames[key]
-            start = received if f.at is None else min(received, max(f.at, received - MAX_BACKDATE_S))
-            lat = self.medium.latencies_s(self.tick, f.src, f.seq, np.array([d for d, _ in dsts])).tolist()
-            self.clock.after([start + x - received for x in lat], [(dst, f, self.tick, heard) for dst, heard in dsts])
-            for (dst, heard), x in zip(dsts, lat, strict=True):
-                host = self.robots.host[dst]
-                if heard or host is None:
-                    continue
-                rab = (list(self.situated.take_rab(f.src, f.seq, dst))
-                       if self.situated.rab and self.situated.wants_rab(dst) else None)
-                out[host].append(Delivery(dst, f.src, f.kind, f.seq, f.body, sent_at, rab, start + x))
+        for k, d, h, when in zip(fr.tolist(), dst.tolist(), heard.tolist(), due.tolist(), strict=True):
+            host = hosts[d]
+            if h or host is None:
+                continue
+            f = frames[k]
+            r = list(self.situated.take_rab(f.src, f.seq, d)) if rab and self.situated.wants_rab(d) else None
+            out[host].append(Delivery(d, f.src, f.kind, f.seq, f.body, sent_at, r, when))
         for host, batch in out.items():
             entry = self.hosts.get(host)
             if entry is not None and entry.alive:
                 self.link.publish(self.keys.down(host), self._down(host, Deliveries(batch)))
 
-    def _rt_deliver(self, item: tuple[int, Outgoing, int, bool]) -> None:
-        """Realtime bookkeeping at a copy's due time: delivered (or overheard), or dropped as ``dead``."""
-        dst, f, sent_tick, heard = item
+    def _rt_deliver(self, item: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]) -> None:
+        """Realtime bookkeeping at a group of copies' due time: delivered (or overheard), or dropped as ``dead``."""
+        dst, src, seq, heard, sent_tick = item
         if self.finished:
             return
-        if not self.robots.alive[dst]:
-            self.record.dead(f.src, f.seq, dst)
-            return
-        if heard:
-            self.record.overheard(f.src, f.seq, dst, sent_tick)
-        else:
-            self.record.delivered(f.src, f.seq, dst, sent_tick)
+        live = self.robots.alive[dst]
+        if not live.all():
+            for d, s_, q in zip(dst[~live].tolist(), src[~live].tolist(), seq[~live].tolist(), strict=True):
+                self.record.dead(s_, q, d)
+            dst, src, seq, heard = dst[live], src[live], seq[live], heard[live]
+        sent = np.full(len(dst), sent_tick, dtype=np.int64)
+        if heard.any():
+            self.record.overheard_arrays(src[heard], seq[heard], dst[heard], sent[heard])
+            keep = ~heard
+            dst, src, seq, sent = dst[keep], src[keep], seq[keep], sent[keep]
+        self.record.delivered_arrays(src, seq, dst, sent)
 
     # ------------------------------------------------------------ actions and failures
     def _apply(self, action: dict, source: str) -> None:

@@ -102,3 +102,25 @@ def test_realtime_deliveries_are_never_early():
 def test_make_clock_by_name():
     assert isinstance(make_clock("lockstep", 1, 1.0), LockstepClock)
     assert isinstance(make_clock("realtime", 1, 1.0), RealtimeClock)
+
+
+def test_bucket_groups_cover_each_copy_once_and_never_fire_before_a_copy_is_due():
+    """The world's realtime bookkeeping: one clock item per bucket, fired at its longest delay (world.bucket_groups)."""
+    import math
+
+    import numpy as np
+
+    from world.clock import BUCKET_S
+    from world.world import bucket_groups
+
+    rng = np.random.default_rng(3)
+    now = 1234.56789
+    delay = np.r_[rng.uniform(0.008, 0.012, 500), np.full(20, 0.01), [0.0]]
+    groups = bucket_groups(delay, now)
+    idx = np.concatenate(groups)
+    assert sorted(idx.tolist()) == list(range(len(delay)))  # every copy once
+    for g in groups:
+        assert (np.diff(g) > 0).all()  # in their original order
+        fire = math.ceil((now + delay[g].max()) / BUCKET_S) * BUCKET_S  # when the clock fires the group's item
+        assert (now + delay[g] <= fire).all()  # never before a copy's due time
+        assert fire - (now + delay[g].min()) <= BUCKET_S + 1e-12  # nor a bucket after it
