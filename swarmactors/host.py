@@ -44,7 +44,6 @@ from transport.messages import (
     Inputs,
     JoinReply,
     JoinRequest,
-    Outputs,
     RobotDescr,
     RobotOut,
     RunInfo,
@@ -198,18 +197,15 @@ class Robot:
         ctx = self.ctx
         frames, ctx._outbox = ctx._outbox, []
         vel, ctx._velocity = ctx._velocity, None
-        changed = self.changed_status() if ctx._status else None
+        changed = None
+        if ctx._status:
+            sent = self.sent_status
+            changed = {k: v for k, v in ctx._status.items() if k not in sent or sent[k] != v} or None
+            if changed:
+                sent.update(changed)
         if self.error:
             self.error_sent = True
         return RobotOut(self.id, vel, frames, changed, self.error)
-
-    def changed_status(self) -> dict | None:
-        """The status entries changed since last sent (None: none); they count as sent from now."""
-        sent = self.sent_status
-        changed = {k: v for k, v in self.ctx._status.items() if k not in sent or sent[k] != v} or None
-        if changed:
-            sent.update(changed)
-        return changed
 
     def fail(self, exc: BaseException | str) -> None:
         if isinstance(exc, BaseException):
@@ -369,44 +365,6 @@ class FrameTable:
         return out, bad
 
 
-_I64 = np.dtype("<i8")
-_I32 = np.dtype("<i4")
-
-
-def _outputs(stepped: list[Robot]) -> Outputs:
-    """The stepped robots' outputs (``Robot.outputs``) as the columns of a lockstep uplink, in their order."""
-    ptr = [0]
-    sent: list = []  # every FrameOut, in order
-    vel: list = []
-    status: dict[int, dict] = {}
-    error: dict[int, str] = {}
-    moved = False
-    for i, robot in enumerate(stepped):
-        ctx = robot.ctx
-        frames = ctx._outbox
-        if frames:
-            ctx._outbox = []
-            sent += frames
-        ptr.append(len(sent))
-        v = ctx._velocity
-        if v is not None:
-            ctx._velocity = None
-            moved = True
-        vel.append(v)
-        if ctx._status:
-            changed = robot.changed_status()
-            if changed:
-                status[i] = changed
-        if robot.error:
-            robot.error_sent = True
-            error[i] = robot.error
-    dst = [-1 if f.dst is None else f.dst for f in sent]
-    exclude = {k: f.exclude for k, f in enumerate(sent) if f.exclude}
-    return Outputs(np.array([r.id for r in stepped], _I64).tobytes(), np.array(ptr, _I32).tobytes(),
-                   np.array(dst, _I64).tobytes(), np.array([f.seq for f in sent], _I64).tobytes(),
-                   [f.kind for f in sent], [f.body for f in sent], exclude, vel if moved else [], status, error)
-
-
 class RobotHost:
     """Joins the world and runs its robots until the world says stop."""
 
@@ -492,10 +450,8 @@ class RobotHost:
                         "the lease, 2·watchdog_s + 5 s)")
 
     # -- common to both clocks -----------------------------------
-    def _uplink(self, tick: int, rows: list[RobotOut] | Outputs = (), reports: dict | None = None) -> bytes:
-        """An uplink message, sealed with this host's key (transport.auth): outputs as rows or columns."""
-        if isinstance(rows, Outputs):
-            return seal(self.key, encode(Uplink(self.name, tick, [], reports, rows)))
+    def _uplink(self, tick: int, rows: list[RobotOut] = (), reports: dict | None = None) -> bytes:
+        """An uplink message, sealed with this host's key (transport.auth)."""
         return seal(self.key, encode(Uplink(self.name, tick, list(rows), reports)))
 
     def _take_membership(self, msg: Inputs) -> None:
@@ -563,7 +519,7 @@ class RobotHost:
             return
         self._inbox.put_nowait(msg)
 
-    async def _step_lockstep(self, msg: Inputs) -> Outputs:
+    async def _step_lockstep(self, msg: Inputs) -> list[RobotOut]:
         self._take_membership(msg)
         now, objects = msg.now, msg.objects
         cols = msg.columns()
@@ -610,7 +566,7 @@ class RobotHost:
                 pending[task].fail(f"watchdog: step of tick {self.tick} exceeded {self.run_info.watchdog_s} s")
             if late:
                 await asyncio.wait(late, timeout=1.0)  # the tasks this host started end with the step
-        return _outputs(stepped)
+        return [robot.outputs() for robot in stepped]
 
     async def _send_reports(self, uplink: str) -> None:
         reports = {rid: r.report() for rid, r in self.robots.items()}

@@ -118,103 +118,17 @@ class RobotOut(_Row):
     error: str | None
 
 
-I64 = np.dtype("<i8")
-
-
-class Outputs(msgspec.Struct, forbid_unknown_fields=True, omit_defaults=True, dict=True):
-    """A lockstep step's outputs as columns: what ``RobotOut`` rows say, one entry per stepped robot.
-
-    ``ids`` (int64) are the robots, in the host's order; robot i's frames are rows ``frames[i]:frames[i + 1]``
-    (int32 offsets) of the frame columns ``dst`` (int64, -1: a broadcast), ``seq`` (int64), ``kind`` and
-    ``body``; ``exclude`` (frame row -> ids) only for broadcasts that exclude some. ``velocity`` is empty when
-    no robot commanded one, else one entry per robot (None: none); ``status`` (changes) and ``error`` are
-    keyed by robot row. Every number is little-endian. Decoding checks that the columns fit together (lengths,
-    offsets, keys inside the rows, no negative id or seq, no dst below -1); ``rows()`` gives the same content
-    as ``RobotOut`` rows.
-    """
-
-    ids: bytes = b""
-    frames: bytes = msgspec.field(name="f", default=b"")
-    dst: bytes = msgspec.field(name="d", default=b"")
-    seq: bytes = msgspec.field(name="q", default=b"")
-    kind: list[Kind] = msgspec.field(name="k", default_factory=list)
-    body: list[bytes] = msgspec.field(name="b", default_factory=list)
-    exclude: dict[int, list[RobotId]] = msgspec.field(name="x", default_factory=dict)
-    velocity: list[list[float] | None] = msgspec.field(name="v", default_factory=list)
-    status: dict[int, dict[str, Any]] = msgspec.field(name="s", default_factory=dict)
-    error: dict[int, str] = msgspec.field(name="e", default_factory=dict)
-
-    def __post_init__(self) -> None:
-        ids = _column(self.ids, I64, "ids")
-        n = len(ids)
-        if n and ids.min() < 0:
-            raise ValueError("ids: a negative robot id")
-        nf = len(self.kind)
-        if len(self.body) != nf:
-            raise ValueError(f"b: {len(self.body)} bodies for {nf} frames")
-        dst = _column(self.dst, I64, "d")
-        seq = _column(self.seq, I64, "q")
-        if len(dst) != nf or len(seq) != nf:
-            raise ValueError(f"d, q: {len(dst)} and {len(seq)} numbers for {nf} frames")
-        if nf and (dst.min() < -1 or seq.min() < 0):
-            raise ValueError("d, q: a destination below -1 or a negative seq")
-        ptr = _offsets(self.frames, n, nf, "f")
-        if self.velocity and len(self.velocity) != n:
-            raise ValueError(f"v: {len(self.velocity)} rows for {n} robots")
-        for name, keys, size in (("x", self.exclude, nf), ("s", self.status, n), ("e", self.error, n)):
-            if keys and not all(0 <= k < size for k in keys):
-                raise ValueError(f"{name}: a key outside the {size} rows")
-        self.__dict__["_cols"] = (ids, ptr, dst, seq)
-
-    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """``ids``, the frame offsets, ``dst`` and ``seq`` as arrays (checked when decoded)."""
-        return self.__dict__["_cols"]
-
-    def rows(self) -> list[RobotOut]:
-        """The same outputs as one ``RobotOut`` per robot."""
-        ids, ptr, dst, seq = (a.tolist() for a in self.arrays())
-        vel, kind, body, ex = self.velocity, self.kind, self.body, self.exclude
-        out = []
-        for i, rid in enumerate(ids):
-            frames = [FrameOut(None if dst[k] < 0 else dst[k], kind[k], seq[k], body[k], list(ex.get(k, ())))
-                      for k in range(ptr[i], ptr[i + 1])]
-            out.append(RobotOut(rid, vel[i] if vel else None, frames, self.status.get(i), self.error.get(i)))
-        return out
-
-    @classmethod
-    def from_rows(cls, rows: list[RobotOut]) -> Outputs:
-        """Columns holding the same outputs as ``rows``."""
-        ptr, dst, seq, kind, body, ex = [0], [], [], [], [], {}
-        for r in rows:
-            for f in r.frames:
-                if f.exclude:
-                    ex[len(dst)] = list(f.exclude)
-                dst.append(-1 if f.dst is None else f.dst)
-                seq.append(f.seq)
-                kind.append(f.kind)
-                body.append(f.body)
-            ptr.append(len(dst))
-        vel = [r.velocity for r in rows]
-        return cls(np.array([r.id for r in rows], I64).tobytes(), np.array(ptr, I32).tobytes(),
-                   np.array(dst, I64).tobytes(), np.array(seq, I64).tobytes(), kind, body, ex,
-                   vel if any(v is not None for v in vel) else [],
-                   {i: r.status for i, r in enumerate(rows) if r.status is not None},
-                   {i: r.error for i, r in enumerate(rows) if r.error is not None})
-
-
 class Uplink(_Message):
     """A host's message to the world (sealed with the host's key).
 
-    In lockstep it is the step put of tick ``tick`` (-1: the registration query), its robots' outputs as columns
-    (``outputs``); in realtime a put of frames sent now, as rows (``robots``). ``reports`` (robot id -> report)
-    comes once, at the end. The world takes ``robots`` first, then ``outputs``, whichever clock.
+    In lockstep it is the step put of tick ``tick`` (-1: the registration query); in realtime a put of frames sent
+    now. ``reports`` (robot id -> report) comes once, at the end.
     """
 
     host: HostName = msgspec.field(name="h")
     tick: int = msgspec.field(name="t")
     robots: list[RobotOut] = msgspec.field(name="r", default_factory=list)
     reports: dict[int, Any] | None = msgspec.field(name="rep", default=None)
-    outputs: Outputs | None = msgspec.field(name="o", default=None)
 
 
 # ----------------------------------------------------------------- world -> host

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from transport.messages import Outputs, RobotOut
+from transport.messages import RobotOut
 from world.kinematics import velocity_problem
 from world.radio import Outgoing
 
@@ -78,56 +78,4 @@ def accept(host: str, rows: list[RobotOut], owned: set[int], alive: np.ndarray, 
                 last = f.seq
                 take(Outgoing(rid, f.dst, f.kind, f.seq, f.body, tuple(f.exclude) if f.exclude else (), f.at))
             last_seq[rid] = last
-    return out
-
-
-def accept_columns(host: str, o: Outputs, owned: set[int], alive: np.ndarray, dims: int,
-                   last_seq: dict[int, int]) -> Accepted:
-    """``accept`` for outputs as columns: the same result, checked with array operations.
-
-    When every robot is owned and listed once, none reports an error, every velocity passes and every alive
-    robot's frame seqs increase from its last accepted one, the uplink is taken whole without a step per frame
-    (an ``Outgoing`` per frame is still made for the radio); anything else goes through ``accept`` on the same
-    content as rows, so the rules and the order of what is refused stay the same.
-    """
-    ids, ptr, dst, seq = o.arrays()
-    idl = ids.tolist()
-    if o.error or len(set(idl)) != len(idl) or not owned.issuperset(idl):
-        return accept(host, o.rows(), owned, alive, dims, last_seq)
-    live = alive[ids] if len(ids) else np.zeros(0, dtype=bool)
-    liv = live.tolist()
-    out = Accepted()
-    if o.velocity:
-        for i, vel in enumerate(o.velocity):
-            if vel is None or not liv[i]:
-                continue
-            if velocity_problem(vel, dims) is not None:
-                return accept(host, o.rows(), owned, alive, dims, last_seq)
-            v = np.zeros(dims)
-            v[: len(vel)] = vel
-            out.velocities.append((idl[i], v))
-    counts = np.diff(ptr)
-    sends = live & (counts > 0)
-    if sends.any():
-        first = ptr[:-1][sends]
-        last = ptr[1:][sends] - 1
-        prev = np.empty(len(seq), dtype=np.int64)
-        prev[1:] = seq[:-1]
-        prev[first] = [last_seq.get(r, -1) for r in ids[sends].tolist()]
-        fl = np.repeat(live, counts)
-        if (seq[fl] <= prev[fl]).any():
-            return accept(host, o.rows(), owned, alive, dims, last_seq)
-        src = np.repeat(ids, counts)
-        d = [None if x < 0 else x for x in dst.tolist()] if (dst >= 0).any() else [None] * len(dst)
-        kind, body, ex = o.kind, o.body, o.exclude
-        if ex:
-            d = [(x, tuple(ex[k]) if ex.get(k) else ()) for k, x in enumerate(d)]
-            cols = zip(src.tolist(), d, kind, seq.tolist(), body, strict=True)
-            frames = [Outgoing(s, x, k, q, b, e) for s, (x, e), k, q, b in cols]
-        else:
-            frames = list(map(Outgoing, src.tolist(), d, kind, seq.tolist(), body))
-        out.frames = frames if fl.all() else [frames[k] for k in np.flatnonzero(fl).tolist()]
-        last_seq.update(zip(ids[sends].tolist(), seq[last].tolist(), strict=True))
-    if o.status:
-        out.statuses = [(idl[i], ch) for i, ch in sorted(o.status.items()) if ch and liv[i]]
     return out

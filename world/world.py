@@ -68,7 +68,7 @@ from world.registry import HostEntry, Robots
 from world.sensing import Reach, Sensed, gather, reach, sense_arrays
 from world.situated import Situated
 from world.space import SpaceRules
-from world.uplink import COUNTED_CRASHES, INVALID_POSITION, Accepted, accept, accept_columns
+from world.uplink import COUNTED_CRASHES, INVALID_POSITION, accept
 
 log = logging.getLogger(__name__)
 
@@ -577,15 +577,9 @@ class World:
         """Step 4: a host's reports (at the end) and its robots' outputs; the radio takes the frames."""
         if msg.reports is not None and not self.lockstep:
             self._take_reports(host, msg.reports)
-        if msg.robots:
-            self._take_accepted(accept(host, msg.robots, self.hosts[host].robots, self.robots.alive, self.dims,
-                                       self._last_seq))
-        if msg.outputs is not None and msg.outputs.ids:
-            self._take_accepted(accept_columns(host, msg.outputs, self.hosts[host].robots, self.robots.alive,
-                                               self.dims, self._last_seq))
-
-    def _take_accepted(self, got: Accepted) -> None:
-        """What ``accept`` let through: crashes, velocities, statuses, and the frames for the radio."""
+        if not msg.robots:
+            return
+        got = accept(host, msg.robots, self.hosts[host].robots, self.robots.alive, self.dims, self._last_seq)
         for rid, reason in got.refused:
             self.record.malformed(rid, reason)
         for rid, cause, error in got.crashes:
