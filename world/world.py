@@ -260,14 +260,11 @@ class World:
         due = self._deliver_due(self.tick)
         self._awaited_tick = self.tick
         self._all_stepped.clear()
-        # a host that joined since the last tick may not have sent its registration yet: it gets
-        # inputs from the tick after its registration arrives (_all_in counts a registration as in).
-        # Every host's inputs are made before the first is put, so that the hosts start their steps together
-        # (a put returns only when the world gets the CPU back from the host that just started).
-        downs = [(host, self._down(host, self._inputs_for(host, due)))
-                 for host in self._live_hosts() if self._held.pop(host, None) is not None]
-        for host, data in downs:
-            self.link.publish(self.keys.down(host), data)
+        for host in self._live_hosts():
+            # a host that joined since the last tick may not have sent its registration yet: it gets
+            # inputs from the tick after its registration arrives (_all_in counts a registration as in)
+            if self._held.pop(host, None) is not None:
+                self.link.publish(self.keys.down(host), self._down(host, self._inputs_for(host, due)))
         await self._await_steps()
         for host in sorted(self._live_hosts()):
             t, msg = self._held.get(host, (None, None))
