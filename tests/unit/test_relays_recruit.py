@@ -208,3 +208,36 @@ def test_the_call_is_repeated_while_the_winner_is_still_heard_free():
     mid.heard[5] = (ctx.tick - 1, {"r": NETWORKER, "c": 0, "p": 1, "ch": 2})  # it joined
     mid._recruit(ctx)
     assert [s[1] for s in ctx.sent] == [JOIN, JOIN]
+
+
+def _airborne_robot(rid: int, airborne: float) -> tuple[Relays, Ctx]:
+    """Robot ``rid`` of the chain 0-1-2-3 with a plan 20 m long whose last ``airborne`` metres only fly."""
+    r, ctx = robot(rid, hears_free=True)
+    plan = {"pe": True, "pi": [[0.0, 0.0, 0.7], [20.0, 0.0, 0.7]], "pig": [[0.0, 0.0], [20.0, 0.0]],
+            "g": 20.0 - airborne, "n": 15}
+    r.rel = SimpleNamespace(peek=lambda key: plan if key == "plan/0" else None)
+    return r, ctx
+
+
+def test_a_slot_needs_a_flying_robot_only_while_the_chain_cannot_cover_the_airborne_part():
+    """ceil(airborne / d_s) robots cover the airborne stretch ending at the target.
+
+    Robot k from the worker sits (k - 1) d_s back: the worker alone covers one shorter than d_s, so its first
+    recruit may walk.
+    """
+    head, _ = _airborne_robot(3, 1.0)  # the worker alone, airborne 1.0 m < d_s = 1.4 m
+    head.child = None
+    assert not head._needs_flying(0, 3, mine=True)
+    head, _ = _airborne_robot(3, 2.0)  # airborne 2.0 m: the worker and one flying recruit
+    head.child = None
+    assert head._needs_flying(0, 3, mine=True)
+    mid, _ = _airborne_robot(2, 2.0)
+    mid.cnt = 2  # itself and the worker above it: enough
+    assert not mid._needs_flying(0, 2, mine=True)
+    root, _ = _airborne_robot(1, 2.0)
+    root.heard[1] = (100, {"r": NETWORKER, "n": 1})  # the base announces a chain of 1 robot
+    assert root._needs_flying(0, 1)
+    root.heard[1] = (100, {"r": NETWORKER, "n": 2})
+    assert not root._needs_flying(0, 1)
+    ground, _ = _airborne_robot(1, 0.0)
+    assert not ground._needs_flying(0, 1)  # a ground plan never asks for flying robots
