@@ -11,7 +11,8 @@ cells and walls 1 cell of side ``cell`` metres):
     arena 3: 4 x 3 maze cells (seed 2), cell 281/13 m -> 281 x 216 m (corridors 43 m),  path 256 m, 100 robots
 
 (maze seeds chosen so that three chains fit in the robots: 3 ceil(path / d_s) + 1 <= N; ground robots only,
-no window wall in arena 1).
+unless ``hetero`` = 1: arena 1 with 20 ground and 5 flying robots and a low wall only flying robots cross, see
+``heterogeneous``).
 
 The root stands at the centre of the top-left maze cell, the target at the bottom-right one's; the other
 robots on a 0.5 m grid around the root (jittered by up to 0.1 m per trial). Radio: range Z = 10.5 m (the
@@ -75,9 +76,10 @@ def heterogeneous(sc: dict, flying: int = 5, wall_x: tuple[float, float] = (32.3
     """Arena 1 as the paper's Fig. 7 has it: 20 ground and 5 flying robots, a section only flying robots cross.
 
     The generated maze of arena 1 has one corridor to the target (down the left column, then along the bottom
-    row); a wall ``wall_top`` high across that row at x in ``wall_x`` (9.3 m before the target, less than d_s)
-    stops ground robots, so every chain's worker must be a flying robot (at ``altitude``, above the wall) and
-    the rest of the chain can be ground robots. The world becomes 3-D (z from 0 to 2 m); the flying robots are
+    row); a wall ``wall_top`` high across that row at x in ``wall_x`` (5.9 m before the target; the airborne
+    part of pi, from ``clearance`` before it, is 8.1 m, less than d_s) stops ground robots, so every chain's
+    worker must be a flying robot (at ``altitude``, above the wall) and the rest of the chain can be ground
+    robots: C_n = 3 chains take 3 of the 5 flying robots. The world becomes 3-D (z from 0 to 2 m); the flying robots are
     the ``flying`` robots placed farthest from the root, so a ground robot is usually elected first and hands
     over (Fig. 4).
     """

@@ -431,7 +431,8 @@ class Relays(Behavior):
                 pos = self.target_pos[t]
 
                 def bid(c: Context, pos=pos) -> float | None:
-                    if c.id == self.root or self.role != FREE or self.kind != "flying":
+                    if c.id == self.root or self.role != FREE or self.kind != "flying" \
+                            or c.id in self.settled.values():
                         return None
                     return float(math.dist(self._pos(c)[:2], pos[:2]))
 
@@ -443,8 +444,22 @@ class Relays(Behavior):
         for t, el in sorted(self.fly.items()):
             if el.elected_at is None:
                 el.step(ctx)
+                if el.elected_at is not None and el.winner is not None and el.winner in (
+                        w for c, w in self.settled.items() if c != t):  # it won another chain's election first
+                    pos, k = self.target_pos[t], int(el.key.rsplit("fly", 1)[1] or 0) + 1
+
+                    def again(c: Context, pos=pos) -> float | None:
+                        if c.id == self.root or self.role != FREE or self.kind != "flying" \
+                                or c.id in self.settled.values():
+                            return None
+                        return float(math.dist(self._pos(c)[:2], pos[:2]))
+
+                    self.fly[t] = Election(self.vote, f"worker/{t}/fly{k}", again, ctx.tick, bid_ticks)
+                    continue
                 if el.elected_at is not None:
                     self.settled_at[t] = ctx.tick
+                    if el.winner is not None:
+                        self.settled[t] = el.winner
                 if el.elected_at is not None and el.winner == ctx.id and self.role == FREE:
                     self.role, self.chain, self.parent, self.child, self.depth = WORKER, t, self.root, None, 1
                     self.up, self.dn = [ctx.id, self.root], [ctx.id]
@@ -552,7 +567,8 @@ class Relays(Behavior):
             value = {"pe": False, "pi": [], "pig": [], "n": 0, "why": why}
         else:
             pig = [p[:2] for p in pts]
-            g = planner.ground_reach(pig, inside, self.clearance) if air is not None else planner.length(pig)
+            g = planner.ground_reach(pig, inside, self.clearance, body=self.rcol / 2) if air is not None \
+                else planner.length(pig)
             pi = [[round(p[0], 4), round(p[1], 4), round(p[2], 4) if len(p) == 3 else 0.0 if air is None else air]
                   for p in pts]
             value = {"pe": True, "pi": pi, "pig": [p[:2] for p in pi], "g": round(g, 4),
@@ -728,7 +744,7 @@ class Relays(Behavior):
         else:
             h = self.heard.get(base)
             have = h[1].get("n") if h is not None and is_int(h[1].get("n")) else 0
-        return have < math.ceil(airborne / self.ds) + 1
+        return have < math.ceil(airborne / self.ds)
 
     def _run_slot(self, ctx: Context, chain: int) -> None:
         """Close a slot: call the winner; forget the slot once it joined, or when the call goes unanswered.

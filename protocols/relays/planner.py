@@ -283,13 +283,18 @@ def arc_3d(path: list[list[float]], s: float) -> float:
         done, out = done + flat, out + full
     return out
 
-def ground_reach(path: list[list[float]], blocked_at, clearance: float, step: float = 0.05) -> float:
+def ground_reach(path: list[list[float]], blocked_at, clearance: float, step: float = 0.05,
+                 body: float | None = None) -> float:
     """Return the arc length a ground robot can follow along ``path``.
 
-    That is, up to where the path comes within ``clearance`` of a ground obstacle (the end of pi_g's ground
-    part), sampled every ``step``.
+    That is, up to ``clearance`` before the first point where a body of radius ``body`` centred on the path
+    touches a ground obstacle (the end of pi_g's ground part), sampled every ``step``. ``body`` defaults to
+    ``clearance``; the behaviour passes the robot's body radius r_col / 2: a path planned at resolution R keeps
+    its clearance only at cell centres, so between them (at a corner of a maze) it may pass closer than the
+    clearance to a wall a ground robot still passes, which must not end the ground part there.
     """
-    ring = [(clearance * math.cos(a), clearance * math.sin(a)) for a in (k * math.pi / 4 for k in range(8))]
+    r = clearance if body is None else body
+    ring = [(r * math.cos(a), r * math.sin(a)) for a in (k * math.pi / 4 for k in range(8))]
     s = 0.0
     for a, b in zip(path, path[1:], strict=False):
         seg = math.dist(a, b)

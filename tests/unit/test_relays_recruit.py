@@ -208,3 +208,72 @@ def test_the_call_is_repeated_while_the_winner_is_still_heard_free():
     mid.heard[5] = (ctx.tick - 1, {"r": NETWORKER, "c": 0, "p": 1, "ch": 2})  # it joined
     mid._recruit(ctx)
     assert [s[1] for s in ctx.sent] == [JOIN, JOIN]
+
+
+def _airborne_robot(rid: int, airborne: float) -> tuple[Relays, Ctx]:
+    """Robot ``rid`` of the chain 0-1-2-3 with a plan 20 m long whose last ``airborne`` metres only fly."""
+    r, ctx = robot(rid, hears_free=True)
+    plan = {"pe": True, "pi": [[0.0, 0.0, 0.7], [20.0, 0.0, 0.7]], "pig": [[0.0, 0.0], [20.0, 0.0]],
+            "g": 20.0 - airborne, "n": 15}
+    r.rel = SimpleNamespace(peek=lambda key: plan if key == "plan/0" else None)
+    return r, ctx
+
+
+def test_a_slot_needs_a_flying_robot_only_while_the_chain_cannot_cover_the_airborne_part():
+    """ceil(airborne / d_s) robots cover the airborne stretch ending at the target.
+
+    Robot k from the worker sits (k - 1) d_s back: the worker alone covers one shorter than d_s, so its first
+    recruit may walk.
+    """
+    head, _ = _airborne_robot(3, 1.0)  # the worker alone, airborne 1.0 m < d_s = 1.4 m
+    head.child = None
+    assert not head._needs_flying(0, 3, mine=True)
+    head, _ = _airborne_robot(3, 2.0)  # airborne 2.0 m: the worker and one flying recruit
+    head.child = None
+    assert head._needs_flying(0, 3, mine=True)
+    mid, _ = _airborne_robot(2, 2.0)
+    mid.cnt = 2  # itself and the worker above it: enough
+    assert not mid._needs_flying(0, 2, mine=True)
+    root, _ = _airborne_robot(1, 2.0)
+    root.heard[1] = (100, {"r": NETWORKER, "n": 1})  # the base announces a chain of 1 robot
+    assert root._needs_flying(0, 1)
+    root.heard[1] = (100, {"r": NETWORKER, "n": 2})
+    assert not root._needs_flying(0, 1)
+    ground, _ = _airborne_robot(1, 0.0)
+    assert not ground._needs_flying(0, 1)  # a ground plan never asks for flying robots
+
+
+class _Closed:
+    """A flying election that closes at the next step with ``winner`` (the stigmergy's part is tested elsewhere)."""
+
+    def __init__(self, key: str, winner: int):
+        self.key, self.winner, self.elected_at = key, winner, None
+
+    def step(self, ctx):
+        self.elected_at = ctx.tick
+
+
+def _flying_robot(rid: int) -> tuple[Relays, Ctx]:
+    r = Relays([[8.0, 0.0]], root=0, kind="flying", chains_per_target=2)
+    r.rel = SimpleNamespace(peek=lambda key: None, entry=lambda key: None)
+    r.vote = None
+    r.settled, r.target_pos = {0: 5, 1: 6}, {0: [8.0, 0.0], 1: [8.0, 0.0]}  # the ground workers that stepped down
+    r.fly = {0: _Closed("worker/0/fly", 9), 1: _Closed("worker/1/fly", 9)}
+    return r, Ctx(rid, tick=50, position=(1.0 + rid / 10, 0.0))
+
+
+def test_flying_elections_that_close_together_on_one_robot_elect_again_for_the_higher_chain():
+    """Fig. 4 with several chains: the same flying robot wins two flying elections at once.
+
+    Chain 0 keeps it; chain 1 elects again (``worker/1/fly1``) among the flying robots not taken.
+    """
+    r, ctx = _flying_robot(9)
+    r._elect_flying(ctx, 10)
+    assert r.settled[0] == 9 and r.role == WORKER and r.chain == 0
+    assert r.fly[1].key == "worker/1/fly1" and r.fly[1].start == 50 and r.fly[1].elected_at is None
+    assert r.fly[1].bid_fn(ctx) is None  # it holds chain 0
+    other, octx = _flying_robot(7)
+    other._elect_flying(octx, 10)
+    assert other.settled[0] == 9 and other.role == FREE and other.fly[1].key == "worker/1/fly1"
+    assert other.fly[1].bid_fn(octx) is not None  # a free flying robot bids in the second round
+    assert 1 not in other.settled or other.settled[1] == 6  # chain 1 is not settled on robot 9

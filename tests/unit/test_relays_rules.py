@@ -119,6 +119,21 @@ def test_ground_reach_ends_where_the_path_meets_a_ground_obstacle():
     wall = _box(4.0, -5.0, 4.6, 5.0)
     assert planner.ground_reach([[0.0, 0.0], [8.0, 0.0]], wall, 0.4) == pytest.approx(3.6 - 0.4, abs=0.06)
     assert planner.ground_reach([[0.0, 0.0], [3.0, 0.0]], wall, 0.4) == pytest.approx(3.0)
+
+
+def test_ground_reach_is_not_cut_by_a_wall_the_path_passes_closer_than_the_clearance():
+    """Only a wall across the path ends the ground part.
+
+    A path planned at resolution R keeps its clearance at cell centres only: between them (a maze corner) it may
+    pass 0.5 m from a wall a ground robot still passes; the ground part ends ``clearance`` before the point where
+    the body (r_col / 2) touches a wall.
+    """
+    corner = _box(2.0, 0.5, 3.0, 4.0)  # 0.5 m beside the path, within the 1 m clearance
+    across = _box(6.0, -5.0, 6.5, 5.0)
+    both = lambda x, y: corner(x, y) or across(x, y)  # noqa: E731
+    path = [[0.0, 0.0], [10.0, 0.0]]
+    assert planner.ground_reach(path, both, 1.0) < 1.0  # the old reading: cut beside the corner, not at the wall
+    assert planner.ground_reach(path, both, 1.0, body=0.125) == pytest.approx(6.0 - 0.125 - 1.0, abs=0.06)
     assert Relays.validate({"targets": [[1, 0]], "kind": "boat"}).startswith("kind")
 
 
