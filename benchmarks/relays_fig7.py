@@ -167,14 +167,15 @@ def sweep_figures(csv_path: Path, out_dir: Path) -> list[Path]:
 
 
 def summarise(rows: list[dict]) -> None:
-    """Per cell (arena, C_n, F): runs, reached, median build time, traversal, time factor and time ratio."""
-    cells = sorted({(r["arena"], r["chains"], r["F"]) for r in rows})
+    """Per cell (arena, C_n, F, hetero): runs, reached, median build time, traversal, time factor and time ratio."""
+    cells = sorted({(r["arena"], r["chains"], r["F"], r.get("hetero", 0)) for r in rows})
     for cell in cells:
-        rs = [r for r in rows if (r["arena"], r["chains"], r["F"]) == cell]
+        rs = [r for r in rows if (r["arena"], r["chains"], r["F"], r.get("hetero", 0)) == cell]
         ok = [r for r in rs if r.get("time_factor") is not None]
         med = {k: float(np.median([r[k] for r in ok])) if ok else math.nan
                for k in ("build_s", "traversal_s", "time_factor", "time_ratio")}
-        print(f"arena {cell[0]} C_n={cell[1]} F={cell[2]}: {len(ok)}/{len(rs)} reached; build {med['build_s']:.0f} s, "
+        name = f"arena {cell[0]}{' hetero' if cell[3] else ''} C_n={cell[1]} F={cell[2]}"
+        print(f"{name}: {len(ok)}/{len(rs)} reached; build {med['build_s']:.0f} s, "
               f"traversal {med['traversal_s']:.0f} s, time factor {med['time_factor']:.3f}, "
               f"time ratio {med['time_ratio']:.3f}; killed {[r['killed'] for r in rs]}; "
               f"wall {sum(r['wall_s'] for r in rs):.0f} s")
@@ -188,15 +189,16 @@ def plot(rows: list[dict], path: Path) -> None:
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
     ax = axes[0]
-    for arena in sorted({r["arena"] for r in rows}):
+    for arena, hetero in sorted({(r["arena"], r.get("hetero", 0)) for r in rows}):
         for k, chains in enumerate(sorted({r["chains"] for r in rows})):
-            rs = [r for r in rows if (r["arena"], r["chains"], r["F"]) == (arena, chains, 0.0) and r.get("build_s")]
-            x = arena + (k - 1) * 0.2
-            ax.scatter([x] * len(rs), [r["build_s"] for r in rs], color=f"C{k}", label=None if arena > 1 else
-                       f"C_n = {chains}")
+            cell = (arena, chains, 0.0, hetero)
+            rs = [r for r in rows if (r["arena"], r["chains"], r["F"], r.get("hetero", 0)) == cell and r.get("build_s")]
+            x = arena + 0.45 * hetero + (k - 1) * 0.12
+            ax.scatter([x] * len(rs), [r["build_s"] for r in rs], color=f"C{k}", marker="^" if hetero else "o",
+                       label=None if arena > 1 or hetero else f"C_n = {chains}")
             if rs:
                 ax.scatter([x], [rs[0]["traversal_s"]], color="k", marker="_", s=200)
-    ax.set_xlabel("arena (generated maze; black bar: traversal time)")
+    ax.set_xlabel("arena (generated maze; triangles: arena 1, 20 ground + 5 flying; black bar: traversal time)")
     ax.set_ylabel("time to build (s)")
     ax.set_title("Fig. 7 top, reduced (ours)")
     ax.legend(fontsize=8)
