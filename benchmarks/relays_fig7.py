@@ -198,13 +198,13 @@ def plot(rows: list[dict], path: Path) -> None:
                        label=None if arena > 1 or hetero else f"C_n = {chains}")
             if rs:
                 ax.scatter([x], [rs[0]["traversal_s"]], color="k", marker="_", s=200)
-    ax.set_xlabel("arena (generated maze; triangles: arena 1, 20 ground + 5 flying; black bar: traversal time)")
+    ax.set_xlabel("arena (triangles: arena 1 with 5 flying robots; bars: traversal time)")
     ax.set_ylabel("time to build (s)")
     ax.set_title("Fig. 7 top, reduced (ours)")
     ax.legend(fontsize=8)
     ax = axes[1]
     for chains in sorted({r["chains"] for r in rows}):
-        rs = [r for r in rows if r["arena"] == 1 and r["chains"] == chains]
+        rs = [r for r in rows if r["arena"] == 1 and r["chains"] == chains and not r.get("hetero")]
         if len({r["F"] for r in rs}) < 2:
             continue
         built = [r for r in rs if r.get("build_s")]
