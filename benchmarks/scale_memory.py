@@ -26,7 +26,6 @@ import os
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 
@@ -37,39 +36,29 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import bench_measure as bench  # noqa: E402  (benchmarks/ is not a package)
+from realtime_soak import Sampler as SoakSampler  # noqa: E402
 
 from swarmactors import launcher  # noqa: E402
 from swarmactors.hosting import Endpoints  # noqa: E402
 
 
-class Sampler(threading.Thread):
-    """Every ``every`` seconds: (wall s, tick, load1, RSS MB of this process and of each spawned host)."""
+class Sampler(SoakSampler):
+    """realtime_soak's sampler (RSS of this process and of each spawned host), with the tick the world reached."""
 
     def __init__(self, every: float) -> None:
-        super().__init__(daemon=True)
-        self.every, self.samples, self.stop = every, [], threading.Event()
-        self.me, self.t0, self.tick = psutil.Process(), time.monotonic(), 0
+        super().__init__(every)
+        self.tick = 0
 
     def run(self) -> None:
         while not self.stop.wait(self.every):
             rss = {"world": self.me.memory_info().rss / 1e6}
-            for i, p in enumerate(sorted(self._hosts(), key=lambda p: p.pid)):
+            for i, p in enumerate(sorted(self.hosts(), key=lambda p: p.pid)):
                 try:
                     rss[f"host {i}"] = p.memory_info().rss / 1e6
                 except psutil.Error:
                     pass
             self.samples.append({"t_s": round(time.monotonic() - self.t0, 2), "tick": self.tick,
                                  "load1": os.getloadavg()[0], "rss_mb": {k: round(v, 2) for k, v in rss.items()}})
-
-    def _hosts(self) -> list[psutil.Process]:
-        found = []
-        for p in self.me.children():
-            try:
-                if "spawn_main" in " ".join(p.cmdline()):
-                    found.append(p)
-            except psutil.Error:
-                pass
-        return found
 
 
 def summarise(samples: list[dict], ticks: int, warmup: float) -> dict:
