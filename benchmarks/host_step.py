@@ -27,7 +27,6 @@ import pstats
 import statistics
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -42,15 +41,7 @@ ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT / "benchmarks") not in sys.path:  # idle_behavior
     sys.path.insert(0, str(ROOT / "benchmarks"))
 
-
-def unpack(commit: str) -> Path:
-    """The tree of ``commit``, unpacked once under the temporary directory."""
-    path = Path(tempfile.gettempdir()) / f"swarmactors-tree-{commit[:12]}"
-    if not path.exists():
-        path.mkdir()
-        archive = subprocess.run(["git", "-C", str(ROOT), "archive", commit], check=True, capture_output=True).stdout
-        subprocess.run(["tar", "-x", "-C", str(path)], input=archive, check=True)
-    return path
+from world_tick import unpack  # noqa: E402  (a commit's tree, unpacked once)
 
 
 def one_run(tree: Path, args) -> dict:
