@@ -422,15 +422,23 @@ def test_cluster_certificates_and_what_a_tls_address_needs(tmp_path, capsys, mon
 def test_the_scheduler_going_away_mid_sweep_exits_3_with_a_resumable_csv(tmp_path):
     """A scheduler killed while trials run: exit 3 naming it; the rows so far stay, and the sweep resumes."""
     pytest.importorskip("distributed")
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    address = f"tcp://127.0.0.1:{port}"
+    # The scheduler picks its own port and writes it to a file: a port chosen here and freed before the scheduler
+    # binds it can be taken in between (CI once waited 60 s for a scheduler that had never started).
     dask = Path(sys.executable).with_name("dask")
-    scheduler = subprocess.Popen([str(dask), "scheduler", "--port", str(port), "--no-dashboard"],
-                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    address_file = tmp_path / "scheduler.json"
+    log = tmp_path / "scheduler.log"
+    with log.open("w") as log_file:
+        scheduler = subprocess.Popen([str(dask), "scheduler", "--port", "0", "--no-dashboard", "--scheduler-file",
+                                      str(address_file)], stdout=subprocess.DEVNULL, stderr=log_file)
+    started = time.monotonic() + 120
+    address = None
+    while address is None:
+        assert scheduler.poll() is None, log.read_text()
+        assert time.monotonic() < started, "the Dask scheduler did not start in 120 s:\n" + log.read_text()
+        try:
+            address = json.loads(address_file.read_text())["address"]
+        except (OSError, ValueError, KeyError):  # not written yet, or half written
+            time.sleep(0.1)
     worker = subprocess.Popen([str(dask), "worker", address, "--nthreads", "1", "--no-dashboard"],
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     scenario = tmp_path / "cl.toml"
