@@ -112,7 +112,7 @@ def floor(n_host: int, per_robot: float, repeats: int = 5) -> dict:
     from swarmactors.behavior import Frame
     from swarmactors.host import RobotHost
     from transport import Keys, pack
-    from transport.messages import Deliveries, Delivery, Downlink, Inputs, RobotDescr, RobotIn, RunInfo, decode, encode
+    from transport.messages import Deliveries, Downlink, FrameIn, Inputs, RobotDescr, RobotIn, RunInfo, decode, encode
 
     class NoLink:  # the uplink's bytes are built (encoded, sealed) and then dropped
         def publish(self, key, data, reliable=True):
@@ -135,22 +135,26 @@ def floor(n_host: int, per_robot: float, repeats: int = 5) -> dict:
         now = time.time()
         dst = rng.integers(0, n_host, d_total)
         src = rng.integers(0, 2 * n_host, d_total)
-        items = [Delivery(int(d), int(s), "PROBE", 1, pack([0.0, time.monotonic(), now]), 0.0, None, now)
-                 for d, s in zip(np.sort(dst), src, strict=True)]
-        wire = encode(Deliveries(items))
+        senders, refs = np.unique(src, return_inverse=True)  # each sender's frame once in the table
+        table = [FrameIn(int(s), "PROBE", 1, pack([0.0, time.monotonic(), now]), 0.0) for s in senders.tolist()]
+        order = np.argsort(dst, kind="stable")
+        msg = Deliveries.of(table, dst[order], refs[order], np.full(d_total, now))
+        wire = encode(msg)
         t = cpu()
         decode(wire, Downlink, what="floor")
         out["decode_ms"].append((cpu() - t) * 1e3)
         t = cpu()
-        host._deliver(items)
+        host._deliver([(msg, *(c.tolist() for c in msg.arrays()[:2]), list(range(d_total)))])
         out["handover_ms"].append((cpu() - t) * 1e3)
         robots = host.robots
-        frames = [(robots[d.dst], Frame(d.src, d.kind, [0.0, 0.0, 0.0], d.seq, d.sent)) for d in items]
+        frames = [(robots[d], Frame(table[k].src, "PROBE", [0.0, 0.0, 0.0], 1, 0.0))
+                  for d, k in zip(dst[order].tolist(), refs[order].tolist(), strict=True)]
         t = cpu()
         for robot, f in frames:
             robot.behaviors[0].on_frame(robot.ctx, f)
         out["on_frame_only_ms"].append((cpu() - t) * 1e3)
-        msg = Inputs(1, 0.0, [RobotIn(i, [float(i), 0.0, 0.0], ([], []), []) for i in range(n_host)], epoch=now)
+        msg = Inputs.from_rows(1, 0.0, [RobotIn(i, [float(i), 0.0, 0.0], ([], []), []) for i in range(n_host)],
+                               epoch=now)
         t = cpu()
         host._rt_tick(msg, 0, to_end=True)
         out["step_ms"].append((cpu() - t) * 1e3)

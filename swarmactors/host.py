@@ -39,7 +39,6 @@ from transport.auth import run_secret_from_env, verifies
 from transport.messages import (
     PROTOCOL_VERSION,
     Deliveries,
-    Delivery,
     Downlink,
     FrameIn,
     Inputs,
@@ -653,15 +652,7 @@ class RobotHost:
             self._stopped.set()
             return
         if isinstance(msg, Deliveries):
-            now = time.time()
-            if RT_STAMPS is not None:
-                RT_STAMPS.update(((d.src << 32) | d.seq, now) for d in msg.items)
-            due_now = [d for d in msg.items if d.due is None or d.due <= now]
-            for d in msg.items:
-                if d.due is not None and d.due > now:
-                    self._timer.add(d.due, d)  # handed over at its due time, never earlier
-            if due_now:
-                self._deliver(due_now, now)
+            self._take_deliveries(msg)
             return
         if isinstance(msg, Inputs):
             if self._rt_next is not None:  # the previous tick's robots not stepped yet go first, all at once
@@ -707,9 +698,33 @@ class RobotHost:
         if self._rt_next is not None and self._rt_next[0] is msg:
             self._rt_tick(*self._rt_next)
 
-    def _deliver(self, items: list[Delivery], woke: float = 0.0) -> None:
+    def _take_deliveries(self, msg: Deliveries) -> None:
+        """Realtime: copies already due are handed over now, the others go on the timer, one item per due time."""
+        now = time.time()
+        if RT_STAMPS is not None:
+            RT_STAMPS.update(((f.src << 32) | f.seq, now) for f in msg.frames)
+        dst, refs, due = (col.tolist() for col in msg.arrays())
+        by_due: dict[float, list[int]] = {}  # each due time's copies, in the message's order
+        for i, when in enumerate(due):
+            got = by_due.get(when)
+            if got is None:
+                by_due[when] = [i]
+            else:
+                got.append(i)
+        at_once = []
+        for when, idx in by_due.items():
+            copies = (msg, dst, refs, idx)
+            if when <= now:
+                at_once.append(copies)
+            else:
+                self._timer.add(when, copies)  # handed over at its due time, never earlier
+        if at_once:
+            self._deliver(at_once, now)
+
+    def _deliver(self, groups: list[tuple[Deliveries, list[int], list[int], list[int]]], woke: float = 0.0) -> None:
         """Realtime: hand frames whose due time has come to their robots (one batch per robot).
 
+        ``groups``: (a message, its receivers and frame indices as lists, the indices of its copies due now).
         ``woke``: when the timer fired for them (or they arrived already due); for the benchmarks' stamps only.
         """
         if self._stopped.is_set():
@@ -717,29 +732,34 @@ class RobotHost:
         if RT_STAMPS is not None:
             RT_BATCH[:] = (woke, time.time(), self._epoch or 0.0)
         # Each robot's frames are decoded just before its hooks run, not all up front: the first robot's
-        # on_frame does not wait for the whole batch's decoding. ``ctx.now`` is read per robot.
+        # on_frame does not wait for the whole batch's decoding. ``ctx.now`` is read per robot. Every copy's
+        # body is decoded for its robot alone, so no robot sees another's changes.
         robots = self.robots
-        by_robot: dict[int, list[Delivery]] = {}
-        for d in items:
-            got = by_robot.get(d.dst)
-            if got is None:
-                by_robot[d.dst] = [d]
-            else:
-                got.append(d)
+        by_robot: dict[int, list[tuple[FrameIn, list[float] | None]]] = {}
+        for msg, dst, refs, idx in groups:
+            table, rab = msg.frames, msg.rab
+            for i in idx:
+                copy = (table[refs[i]], None if rab is None else rab[i])
+                got = by_robot.get(dst[i])
+                if got is None:
+                    by_robot[dst[i]] = [copy]
+                else:
+                    got.append(copy)
         sliced = len(robots) <= RT_SLICED_UP_TO
         touched = []
-        for rid, ds in by_robot.items():
+        decode_body = _body_decoder.decode
+        for rid, copies in by_robot.items():
             robot = robots.get(rid)
             if robot is None or not robot.alive:
                 continue
             frames = []
-            for d in ds:
+            for f, rb in copies:
                 try:
-                    body = _body_decoder.decode(d.body)
+                    body = decode_body(f.body)
                 except msgspec.DecodeError:
                     robot.bad_bodies += 1
                     continue
-                frames.append(Frame(d.src, d.kind, body, d.seq, d.sent, None if d.rab is None else tuple(d.rab)))
+                frames.append(Frame(f.src, f.kind, body, f.seq, f.sent, None if rb is None else (rb[0], rb[1])))
             if not frames:
                 continue
             robot.ctx._set_time(self.tick, self._rt_now())

@@ -308,23 +308,51 @@ class Inputs(msgspec.Struct, tag="in", forbid_unknown_fields=True, omit_defaults
                    frames=list(frames), objects=dict(objects or {}), **opt, **more)
 
 
-class Delivery(_Row):
-    """Realtime: one frame for one robot, to be handed to it at ``due`` (at once when None or past)."""
+class Deliveries(msgspec.Struct, tag="d", forbid_unknown_fields=True, omit_defaults=True, dict=True):
+    """Realtime: the copies the radio decided to deliver to this host's robots, as columns (one row per copy).
 
-    dst: int
-    src: int
-    kind: str
-    seq: int
-    body: bytes
-    sent: float
-    rab: list[float] | None = None  # (range, bearing) at which the receiver heard it (frame.rab)
-    due: float | None = None  # wall time (time.time()) at which the receiver's host hands it to the robot
+    Copy i goes to robot ``dst[i]``: frame ``frames[refs[i]]``, handed over at wall time ``due[i]``
+    (``time.time()``; at once when it has passed). Each frame body travels once per host, however many of its
+    robots receive it. ``rab`` (runs with ``frame.rab``): per copy the (range, bearing) at which the receiver
+    heard it, or None. Integers are int32, times float64, little-endian. Decoding checks that the columns fit
+    together; ``columns()`` gives them as Python lists.
+    """
 
+    frames: list[FrameIn] = msgspec.field(default_factory=list)
+    dst: bytes = b""
+    refs: bytes = b""
+    due: bytes = b""
+    rab: list[list[float] | None] | None = None
 
-class Deliveries(msgspec.Struct, tag="d", forbid_unknown_fields=True):
-    """Realtime: frames the radio decided to deliver, each with its due time, for the host's robots."""
+    def __post_init__(self) -> None:
+        dst = _column(self.dst, I32, "dst")
+        refs = _column(self.refs, I32, "refs")
+        due = _column(self.due, F64, "due")
+        n = len(dst)
+        if len(refs) != n or len(due) != n:
+            raise ValueError(f"dst, refs, due: {n}, {len(refs)} and {len(due)} copies")
+        if n and dst.min() < 0:
+            raise ValueError("dst: a negative robot id")
+        if n and (refs.min() < 0 or refs.max() >= len(self.frames)):
+            raise ValueError(f"refs: an index outside the {len(self.frames)} frames")
+        if n and not np.isfinite(due).all():
+            raise ValueError("due: a time that is not a finite number")
+        if self.rab is not None:
+            if len(self.rab) != n:
+                raise ValueError(f"rab: {len(self.rab)} rows for {n} copies")
+            if any(row is not None and len(row) != 2 for row in self.rab):
+                raise ValueError("rab: a row that is not (range, bearing)")
+        self.__dict__["_cols"] = (dst, refs, due)
 
-    items: list[Delivery]
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The checked columns: receivers, frame indices and due times, as arrays."""
+        return self.__dict__["_cols"]
+
+    @classmethod
+    def of(cls, frames: list[FrameIn], dst: Any, refs: Any, due: Any, rab: list | None = None) -> Deliveries:
+        """The message for copies given as sequences (the world, tests and benchmarks)."""
+        return cls(list(frames), np.asarray(dst, dtype=I32).tobytes(), np.asarray(refs, dtype=I32).tobytes(),
+                   np.asarray(due, dtype=F64).tobytes(), rab)
 
 
 class Stop(msgspec.Struct, tag="stop", forbid_unknown_fields=True, omit_defaults=True):

@@ -44,7 +44,6 @@ from transport.messages import (
     Ack,
     ControlCommand,
     Deliveries,
-    Delivery,
     FrameIn,
     Inputs,
     JoinReply,
@@ -721,21 +720,24 @@ class World:
         groups = bucket_groups(delay, asyncio.get_running_loop().time())
         self.clock.after([float(delay[g].max()) for g in groups],
                          [(dst[g], src[g], seq[g], heard[g], self.tick) for g in groups])
-        # the deliveries, per receiving host, at once
-        hosts = self.robots.host
+        # the deliveries, per receiving host, at once: each frame once per host, the copies as columns
+        to_host = ~heard
         rab = self.situated.rab
-        out: dict[str, list[Delivery]] = defaultdict(list)
-        for k, d, h, when in zip(fr.tolist(), dst.tolist(), heard.tolist(), due.tolist(), strict=True):
-            host = hosts[d]
-            if h or host is None:
+        for host in self._live_hosts():
+            entry = self.hosts[host]
+            ids = np.fromiter(entry.robots, dtype=np.int64, count=len(entry.robots))
+            sel = np.flatnonzero(to_host & np.isin(dst, ids))
+            if not len(sel):
                 continue
-            f = frames[k]
-            r = list(self.situated.take_rab(f.src, f.seq, d)) if rab and self.situated.wants_rab(d) else None
-            out[host].append(Delivery(d, f.src, f.kind, f.seq, f.body, sent_at, r, when))
-        for host, batch in out.items():
-            entry = self.hosts.get(host)
-            if entry is not None and entry.alive:
-                self.link.publish(self.keys.down(host), self._down(host, Deliveries(batch)))
+            used, refs = np.unique(fr[sel], return_inverse=True)
+            table = [FrameIn(f.src, f.kind, f.seq, f.body, sent_at) for f in map(frames.__getitem__, used.tolist())]
+            rows = None
+            if rab:
+                situated, mine = self.situated, dst[sel].tolist()
+                rows = [list(situated.take_rab(frames[k].src, frames[k].seq, d)) if situated.wants_rab(d) else None
+                        for k, d in zip(fr[sel].tolist(), mine, strict=True)]
+            msg = Deliveries.of(table, dst[sel], refs, due[sel], rows)
+            self.link.publish(self.keys.down(host), self._down(host, msg))
 
     def _rt_deliver(self, item: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]) -> None:
         """Realtime bookkeeping at a group of copies' due time: delivered (or overheard), or dropped as ``dead``."""

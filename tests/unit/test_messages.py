@@ -7,6 +7,7 @@ scenarios and the control queryable.
 from __future__ import annotations
 
 import msgpack
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -16,7 +17,6 @@ from transport.messages import (
     ACTIONS,
     Ack,
     Deliveries,
-    Delivery,
     Downlink,
     FrameIn,
     FrameOut,
@@ -70,10 +70,43 @@ def test_bad_uplinks_are_refused_naming_the_field(bad, field):
 def test_downlink_is_one_of_inputs_deliveries_stop_ack():
     inputs = Inputs.from_rows(4, 4.0, [RobotIn(1, [0.0, 0.0, 0.0], ([2], [1.0, 0.0]), [0], None)],
                               [FrameIn(2, "K", 1, b"\x00", 3.0)], {"target": [1.0, 1.0]})
-    for msg in (inputs, Deliveries([Delivery(1, 2, "K", 1, b"\x00", 0.5)]), Stop(4, gone=True), Ack(1.5)):
+    deliveries = Deliveries.of([FrameIn(2, "K", 1, b"\x00", 0.5)], [1, 3], [0, 0], [10.25, 10.5])
+    for msg in (inputs, deliveries, Stop(4, gone=True), Ack(1.5)):
         assert decode(encode(msg), Downlink, what="downlink") == msg
     with pytest.raises(MalformedMessage):
         decode(raw({"t": 1}), Downlink, what="downlink")  # no tag
+
+
+def test_deliveries_are_columns_with_each_frame_once():
+    frames = [FrameIn(2, "K", 1, b"\x01", 0.5), FrameIn(5, "L", 9, b"\x02", 0.5)]
+    msg = Deliveries.of(frames, [7, 8, 7], [0, 0, 1], [1.5, 1.5, 2.0], [[1.0, 0.5], None, [2.0, -1.0]])
+    back = decode(encode(msg), Downlink, what="downlink")
+    dst, refs, due = back.arrays()
+    assert dst.tolist() == [7, 8, 7] and refs.tolist() == [0, 0, 1] and due.tolist() == [1.5, 1.5, 2.0]
+    assert back.frames == frames and back.rab == [[1.0, 0.5], None, [2.0, -1.0]]
+    assert msg.dst == np.array([7, 8, 7], dtype="<i4").tobytes()  # little-endian whatever the machine
+
+
+@pytest.mark.parametrize("fields, complaint", [
+    ({"dst": [1, 2], "refs": [0], "due": [1.0, 1.0]}, "dst, refs, due: 2, 1 and 2 copies"),
+    ({"dst": [-1], "refs": [0], "due": [1.0]}, "negative robot id"),
+    ({"dst": [1], "refs": [1], "due": [1.0]}, "refs: an index outside the 1 frames"),
+    ({"dst": [1], "refs": [0], "due": [float("nan")]}, "due: a time that is not a finite number"),
+    ({"dst": [1], "refs": [0], "due": [1.0], "rab": [[1.0]]}, "rab: a row that is not (range, bearing)"),
+    ({"dst": [1], "refs": [0], "due": [1.0], "rab": []}, "rab: 0 rows for 1 copies"),
+])
+def test_bad_deliveries_are_refused_naming_the_column(fields, complaint):
+    wire = {"type": "d", "frames": [[2, "K", 1, b"\x00", 0.5]],
+            "dst": np.array(fields["dst"], dtype="<i4").tobytes(), "refs": np.array(fields["refs"], "<i4").tobytes(),
+            "due": np.array(fields["due"], dtype="<f8").tobytes()}
+    if "rab" in fields:
+        wire["rab"] = fields["rab"]
+    with pytest.raises(MalformedMessage) as err:
+        decode(raw(wire), Downlink, what="downlink")
+    assert complaint in str(err.value), str(err.value)
+    wire["due"] = wire["due"][:-1]  # not a whole number of float64s
+    with pytest.raises(MalformedMessage, match="8-byte items"):
+        decode(raw(wire), Downlink, what="downlink")
 
 
 def test_join_messages():
