@@ -56,12 +56,16 @@ from transport.messages import (
 log = logging.getLogger(__name__)
 
 
-RT_SLICE = 16  # realtime: robots stepped (or handed frames) per event-loop callback
-# ... for hosts of at most this many robots: a busier host steps its tick in one callback, since slicing lets
-# the deliveries starve the rest of its tick (measured at N = 1000, K = 2: p50 16 -> 42 ms; docs/benchmarks.md)
-RT_SLICED_UP_TO = 256
-# realtime, same hosts: how long the thread holding the GIL keeps it when another thread waits (Python's default
-# is 5 ms; the precise timer's thread and Zenoh's callback threads need it to hand frames over on time)
+# realtime: robots stepped (or handed frames) per event-loop callback, for hosts of up to RT_SMALL_HOST robots
+# and above; between two slices the loop hands over the deliveries that fell due. Measured on a quiet machine
+# (docs/benchmarks.md, "Realtime: slicing every host"): N = 1000, K = 2 (500 robots a host) p50 / p99 of
+# latency - c 2.1 / 7.7 ms unsliced, 1.35 / 5.6 with 128, 1.17 / 4.9 with 64; N = 100, K = 2: 16 gives the
+# lower p50 (0.17 against 0.25 ms with 64).
+RT_SLICE = 16
+RT_SLICE_LARGE = 64
+RT_SMALL_HOST = 256
+# realtime: how long the thread holding the GIL keeps it when another thread waits (Python's default is 5 ms;
+# Zenoh's callback threads need it to hand frames over on time)
 RT_SWITCH_INTERVAL_S = 0.0002
 # realtime: how a host waits for a delivery's due time: "loop", the event loop's own timers made precise
 # (precise_timer.precise_loop; falls back to "thread" on a loop it cannot change), or "thread", a timer thread
@@ -398,6 +402,7 @@ class RobotHost:
         self.run_info: RunInfo | None = None
         self.tick = -1
         self.gone = False  # the world answered a step with Stop(gone): it had lost this host
+        self._rt_slice = RT_SLICE  # realtime: robots per event-loop callback (set again when the run starts)
 
     async def join(
         self,
@@ -602,8 +607,8 @@ class RobotHost:
         self._timer = (LoopTimer(self._loop, self._deliver, stamped=RT_STAMPS is not None) if precise
                        else PreciseTimer(self._loop, self._deliver, self.name, stamped=RT_STAMPS is not None))
         switch = sys.getswitchinterval()
-        if len(self.robots) <= RT_SLICED_UP_TO:  # the timer and Zenoh threads get the GIL within this
-            sys.setswitchinterval(RT_SWITCH_INTERVAL_S)
+        sys.setswitchinterval(RT_SWITCH_INTERVAL_S)  # the timer and Zenoh threads get the GIL within this
+        self._rt_slice = RT_SLICE if len(self.robots) <= RT_SMALL_HOST else RT_SLICE_LARGE
         for robot in self.robots.values():
             self._realtime_timers(robot)
         self.link.subscribe(self.keys.down(self.name), self._on_down)
@@ -666,7 +671,7 @@ class RobotHost:
             self._rt_tick(msg, 0)
 
     def _rt_tick(self, msg: Inputs, start: int, to_end: bool = False) -> None:
-        """Realtime: step the robots of one tick's inputs, ``RT_SLICE`` at a time, flushing after each slice.
+        """Realtime: step the robots of one tick's inputs, a slice at a time, flushing after each slice.
 
         Between two slices the event loop runs whatever else is due (deliveries handed over by the precise
         timer, other hosts' frames), so a frame does not wait for a whole tick of other robots' hooks, and the
@@ -677,8 +682,7 @@ class RobotHost:
         if self._stopped.is_set():
             return
         touched: list[Robot] = []
-        whole = to_end or len(msg.robots) > RT_SLICED_UP_TO
-        end = len(msg.robots) if whole else min(start + RT_SLICE, len(msg.robots))
+        end = len(msg.robots) if to_end else min(start + self._rt_slice, len(msg.robots))
         for row in msg.robots[start:end]:
             robot = self.robots.get(row.id)
             if robot is None or not robot.alive:
@@ -745,7 +749,6 @@ class RobotHost:
                     by_robot[dst[i]] = [copy]
                 else:
                     got.append(copy)
-        sliced = len(robots) <= RT_SLICED_UP_TO
         touched = []
         decode_body = _body_decoder.decode
         for rid, copies in by_robot.items():
@@ -765,7 +768,7 @@ class RobotHost:
             robot.ctx._set_time(self.tick, self._rt_now())
             self._rt_run(robot, robot.frame_calls(frames))
             touched.append(robot)
-            if sliced and len(touched) == RT_SLICE:  # sent now, not after all
+            if len(touched) == self._rt_slice:  # sent now, not after all
                 self._rt_flush(touched)
                 touched = []
         self._rt_flush(touched)
