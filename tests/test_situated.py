@@ -110,6 +110,20 @@ def test_same_trace_hash_with_1_and_3_host_processes(tmp_path, case):
         assert one["world"]["dropped"].get("loss", 0) > 0
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("processes", [0, 2])
+def test_realtime_frames_carry_their_range_and_bearing(tmp_path, processes):
+    """Realtime with ``radio.rab``: every frame handed over carries (range, bearing) within the radio's range."""
+    raw = {"run": {"name": "rt-rab", "seed": 5, "ticks": 20, "clock": "realtime", "dt": 0.05},
+           "radio": {"range": 1.2, "rab": True},
+           "robots": [{"count": 9, "placement": "grid", "spacing": 0.6,
+                       "behaviors": [{"use": "situated_behaviors:Wander", "every": 0.1}]}]}
+    result = run_scenario(raw, tmp_path / f"k{processes}", processes=processes)
+    heard = [h for r in result.reports("wander").values() for h in r["heard"]]
+    assert len(heard) >= 50, len(heard)
+    assert all(h[2] is not None and 0.0 < h[2][0] <= 1.2 + 1e-9 and -math.pi <= h[2][1] <= math.pi for h in heard)
+
+
 # ------------------------------------------------------------------------------------------------ bad input
 
 GOOD = """\

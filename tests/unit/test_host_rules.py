@@ -67,3 +67,51 @@ def test_on_batch_default_is_not_called():
                              "ground", 1.0, 1.0, 1.0), run, allow={"batch_mod"})
     assert robot.error is None, robot.error
     assert len(robot._batch_hooks) == 1
+
+
+def _realtime_host(robots: int):
+    """A realtime RobotHost with ``robots`` beacon robots and no link; hand-overs recorded instead of run."""
+    import asyncio
+    import time
+
+    from swarmactors.host import RobotHost
+    from transport import Keys
+    from transport.messages import RobotDescr, RunInfo
+
+    host = RobotHost(None, Keys("rt"))
+    host.name, host.key, host.tick = "h", b"k" * 32, 0
+    host.run_info = RunInfo("realtime", 0.05, 1, 10, 5.0, 0)
+    for i in range(robots):
+        host._adopt(RobotDescr(i, [float(i), 0.0, 0.0], [{"use": "beacon"}], "ground", 1.0, 1.0, 0.5))
+    host._stopped, host._epoch = asyncio.Event(), time.time()
+    handed: list[tuple[int, list]] = []
+    for robot in host.robots.values():
+        robot.frame_calls = lambda frames, rid=robot.id: iter(handed.append((rid, frames)) or ())
+    timer: list[tuple[float, object]] = []
+    host._timer = type("Timer", (), {"add": staticmethod(lambda due, item: timer.append((due, item)))})()
+    return host, handed, timer
+
+
+def test_realtime_copies_due_are_handed_over_at_once_the_others_per_due_time():
+    import time
+
+    from transport.messages import Deliveries
+
+    host, handed, timer = _realtime_host(3)
+    now = time.time()
+    frames = [FrameIn(5, "K", 1, pack([1]), 0.5), FrameIn(6, "K", 2, b"\xc1", 0.5), FrameIn(7, "K", 3, pack("x"), 0.5)]
+    msg = Deliveries.of(frames, dst=[0, 1, 0, 2, 1, 0], refs=[0, 0, 2, 1, 2, 0],
+                        due=[now - 1, now - 1, now + 60, now - 1, now + 60, now + 30],
+                        rab=[[1.0, 0.5], None, None, None, [0.3, -0.2], None])
+    host._take_deliveries(msg)
+    # due already: robot 0 and 1 get frame 5 (each its own body); robot 2's copy does not decode: counted
+    assert [(rid, [(f.src, f.body, f.rab) for f in fs]) for rid, fs in handed] == [
+        (0, [(5, [1], (1.0, 0.5))]), (1, [(5, [1], None)])]
+    assert handed[0][1][0].body is not handed[1][1][0].body
+    assert host.robots[2].bad_bodies == 1
+    # the rest wait on the timer, one item per due time, never handed over before it
+    assert sorted(due for due, _ in timer) == [now + 30, now + 60]
+    handed.clear()
+    host._deliver([item for _, item in sorted(timer, key=lambda t: t[0])])
+    assert [(rid, [(f.src, f.body, f.rab) for f in fs]) for rid, fs in handed] == [
+        (0, [(5, [1], None), (7, "x", None)]), (1, [(7, "x", (0.3, -0.2))])]
