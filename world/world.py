@@ -156,6 +156,8 @@ class World:
         self.situated = Situated(self.seed, self.radio.rab)  # local frames, bodies' surfaces, clocks, frame.rab
         self.situated.sync(self.robots.spec)
         self.hosts: dict[str, HostEntry] = {}
+        self._host_codes_of: tuple | None = None  # _host_codes: what its cache was built from
+        self._host_codes_cache: tuple[np.ndarray, list[str]] = (np.empty(0, dtype=np.int64), [])
         self.counters = Counters()
         self.record = TickRecord(self.counters, self._publish_event)
         self.max_robots = int(wspec.get("max_robots", MAX_ROBOTS))
@@ -723,10 +725,12 @@ class World:
         # the deliveries, per receiving host, at once: each frame once per host, the copies as columns
         to_host = ~heard
         rab = self.situated.rab
-        for host in self._live_hosts():
-            entry = self.hosts[host]
-            ids = np.fromiter(entry.robots, dtype=np.int64, count=len(entry.robots))
-            sel = np.flatnonzero(to_host & np.isin(dst, ids))
+        codes, names = self._host_codes()
+        of_host = codes[dst]
+        for h, host in enumerate(names):
+            if not self.hosts[host].alive:
+                continue
+            sel = np.flatnonzero(to_host & (of_host == h))
             if not len(sel):
                 continue
             used, refs = np.unique(fr[sel], return_inverse=True)
@@ -738,6 +742,21 @@ class World:
                         for k, d in zip(fr[sel].tolist(), mine, strict=True)]
             msg = Deliveries.of(table, dst[sel], refs, due[sel], rows)
             self.link.publish(self.keys.down(host), self._down(host, msg))
+
+    def _host_codes(self) -> tuple[np.ndarray, list[str]]:
+        """Each robot's host as an index into the names returned (-1: none), for array selections per host.
+
+        Rebuilt only when robots or hosts were added: a robot never changes host (``_on_join``, ``_apply``).
+        """
+        key = (len(self.robots.host), len(self.hosts), sum(len(e.robots) for e in self.hosts.values()))
+        if self._host_codes_of != key:
+            names = list(self.hosts)
+            codes = np.full(len(self.robots.host), -1, dtype=np.int64)
+            for h, name in enumerate(names):
+                members = self.hosts[name].robots
+                codes[np.fromiter(members, dtype=np.int64, count=len(members))] = h
+            self._host_codes_of, self._host_codes_cache = key, (codes, names)
+        return self._host_codes_cache
 
     def _rt_deliver(self, item: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]) -> None:
         """Realtime bookkeeping at a group of copies' due time: delivered (or overheard), or dropped as ``dead``."""
