@@ -56,11 +56,11 @@ from transport.messages import (
 log = logging.getLogger(__name__)
 
 
-# realtime: robots stepped (or handed frames) per event-loop callback, for hosts of up to RT_SMALL_HOST robots
-# and above; between two slices the loop hands over the deliveries that fell due. Measured on a quiet machine
-# (docs/benchmarks.md, "Realtime: slicing every host"): N = 1000, K = 2 (500 robots a host) p50 / p99 of
-# latency - c 2.1 / 7.7 ms unsliced, 1.35 / 5.6 with 128, 1.17 / 4.9 with 64; N = 100, K = 2: 16 gives the
-# lower p50 (0.17 against 0.25 ms with 64).
+# realtime: robots stepped (or handed frames) per event-loop callback: RT_SLICE on hosts of up to RT_SMALL_HOST
+# robots, RT_SLICE_LARGE on bigger ones; between two slices the loop hands over the deliveries that fell due.
+# Measured on a quiet machine (docs/benchmarks.md, "Realtime (issue 22): ... sliced hosts"): N = 1000, K = 2
+# (500 robots a host) p50 / p99 of latency - c 2.1 / 7.7 ms unsliced, 1.35 / 5.6 with 128, 1.17 / 4.9 with 64;
+# N = 100, K = 2: 16 gives the lower p50 (0.17 against 0.25 ms with 64).
 RT_SLICE = 16
 RT_SLICE_LARGE = 64
 RT_SMALL_HOST = 256
@@ -750,19 +750,14 @@ class RobotHost:
                 else:
                     got.append(copy)
         touched = []
-        decode_body = _body_decoder.decode
         for rid, copies in by_robot.items():
             robot = robots.get(rid)
             if robot is None or not robot.alive:
                 continue
-            frames = []
-            for f, rb in copies:
-                try:
-                    body = decode_body(f.body)
-                except msgspec.DecodeError:
-                    robot.bad_bodies += 1
-                    continue
-                frames.append(Frame(f.src, f.kind, body, f.seq, f.sent, None if rb is None else (rb[0], rb[1])))
+            frames = [decode_body(f, rb) for f, rb in copies]
+            if None in frames:
+                robot.bad_bodies += frames.count(None)
+                frames = [f for f in frames if f is not None]
             if not frames:
                 continue
             robot.ctx._set_time(self.tick, self._rt_now())

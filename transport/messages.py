@@ -315,7 +315,7 @@ class Deliveries(msgspec.Struct, tag="d", forbid_unknown_fields=True, omit_defau
     (``time.time()``; at once when it has passed). Each frame body travels once per host, however many of its
     robots receive it. ``rab`` (runs with ``frame.rab``): per copy the (range, bearing) at which the receiver
     heard it, or None. Integers are int32, times float64, little-endian. Decoding checks that the columns fit
-    together; ``columns()`` gives them as Python lists.
+    together; ``arrays()`` gives them decoded.
     """
 
     frames: list[FrameIn] = msgspec.field(default_factory=list)

@@ -680,19 +680,27 @@ class World:
         dst, src, seq, ref, sent, heard = (np.concatenate(col) for col in zip(*parts, strict=True))
         order = np.lexsort((seq, src, dst))
         dst, src, seq, ref, sent, heard = dst[order], src[order], seq[order], ref[order], sent[order], heard[order]
+        keep = self._record_fates(dst, src, seq, sent, heard)
+        if not keep.any():
+            return None
+        return Due(dst[keep], ref[keep], src[keep], seq[keep], frames)
+
+    def _record_fates(self, dst: np.ndarray, src: np.ndarray, seq: np.ndarray, sent: np.ndarray,
+                      heard: np.ndarray) -> np.ndarray:
+        """Record the copies falling due now; return the mask of those delivered (the copies a robot is handed).
+
+        In this order: dropped as ``dead`` (the receiver died meanwhile), overheard, delivered.
+        """
         live = self.robots.alive[dst]
         if not live.all():
             for d, s_, q in zip(dst[~live].tolist(), src[~live].tolist(), seq[~live].tolist(), strict=True):
                 self.record.dead(s_, q, d)
-            dst, src, seq, ref, sent, heard = dst[live], src[live], seq[live], ref[live], sent[live], heard[live]
-        if heard.any():
-            self.record.overheard_arrays(src[heard], seq[heard], dst[heard], sent[heard])
-            keep = ~heard
-            dst, src, seq, ref, sent = dst[keep], src[keep], seq[keep], ref[keep], sent[keep]
-        self.record.delivered_arrays(src, seq, dst, sent)
-        if not len(dst):
-            return None
-        return Due(dst, ref, src, seq, frames)
+        overheard = live & heard
+        if overheard.any():
+            self.record.overheard_arrays(src[overheard], seq[overheard], dst[overheard], sent[overheard])
+        keep = live & ~heard
+        self.record.delivered_arrays(src[keep], seq[keep], dst[keep], sent[keep])
+        return keep
 
     def _schedule_realtime(self, frames: list[Outgoing], fr: np.ndarray, dst: np.ndarray, src: np.ndarray,
                            seq: np.ndarray, heard: np.ndarray) -> None:
@@ -761,19 +769,8 @@ class World:
     def _rt_deliver(self, item: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]) -> None:
         """Realtime bookkeeping at a group of copies' due time: delivered (or overheard), or dropped as ``dead``."""
         dst, src, seq, heard, sent_tick = item
-        if self.finished:
-            return
-        live = self.robots.alive[dst]
-        if not live.all():
-            for d, s_, q in zip(dst[~live].tolist(), src[~live].tolist(), seq[~live].tolist(), strict=True):
-                self.record.dead(s_, q, d)
-            dst, src, seq, heard = dst[live], src[live], seq[live], heard[live]
-        sent = np.full(len(dst), sent_tick, dtype=np.int64)
-        if heard.any():
-            self.record.overheard_arrays(src[heard], seq[heard], dst[heard], sent[heard])
-            keep = ~heard
-            dst, src, seq, sent = dst[keep], src[keep], seq[keep], sent[keep]
-        self.record.delivered_arrays(src, seq, dst, sent)
+        if not self.finished:
+            self._record_fates(dst, src, seq, np.full(len(dst), sent_tick, dtype=np.int64), heard)
 
     # ------------------------------------------------------------ actions and failures
     def _apply(self, action: dict, source: str) -> None:

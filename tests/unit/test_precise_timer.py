@@ -11,8 +11,11 @@ from swarmactors import precise_timer
 from swarmactors.precise_timer import LoopTimer, PreciseTimer, plain_loop, precise_loop
 
 
-async def _collect(dues: list[float]) -> list[tuple[float, float]]:
-    """(due, handed-over wall time) for items added with the given due times."""
+async def _collect(dues: list[float], on_loop: bool = False) -> list[tuple[float, float]]:
+    """(due, handed-over wall time) for items added with the given due times.
+
+    ``on_loop``: through ``LoopTimer`` on a ``precise_loop``; else through the thread of ``PreciseTimer``.
+    """
     loop = asyncio.get_running_loop()
     got: list[tuple[float, float]] = []
     done = asyncio.Event()
@@ -23,13 +26,17 @@ async def _collect(dues: list[float]) -> list[tuple[float, float]]:
         if len(got) == len(dues):
             done.set()
 
-    timer = PreciseTimer(loop, on_due, "test")
+    if on_loop:
+        assert precise_loop(loop)
+    timer = LoopTimer(loop, on_due) if on_loop else PreciseTimer(loop, on_due, "test")
     try:
         for due in dues:
             timer.add(due, due)
         await asyncio.wait_for(done.wait(), 10)
     finally:
         timer.close()
+        if on_loop:
+            plain_loop(loop)
     return got
 
 
@@ -65,27 +72,7 @@ async def test_close_drops_pending_items_and_stops_the_thread():
 
 
 # -- the event loop's own timers, made precise (LoopTimer on precise_loop) -------------------------------------
-async def _collect_loop(dues: list[float]) -> list[tuple[float, float]]:
-    loop = asyncio.get_running_loop()
-    got: list[tuple[float, float]] = []
-    done = asyncio.Event()
 
-    def on_due(items):
-        now = time.time()
-        got.extend((due, now) for due in items)
-        if len(got) == len(dues):
-            done.set()
-
-    assert precise_loop(loop)
-    timer = LoopTimer(loop, on_due)
-    try:
-        for due in dues:
-            timer.add(due, due)
-        await asyncio.wait_for(done.wait(), 10)
-    finally:
-        timer.close()
-        plain_loop(loop)
-    return got
 
 
 async def test_loop_timer_never_hands_over_early_and_each_item_once():
@@ -93,7 +80,7 @@ async def test_loop_timer_never_hands_over_early_and_each_item_once():
     rng = np.random.default_rng(2)
     dues = (start + rng.uniform(0, 0.2, 300)).tolist()
     dues += dues[:50]  # items sharing a due time share one loop timer
-    got = await _collect_loop(dues)
+    got = await _collect(dues, on_loop=True)
     assert sorted(d for d, _ in got) == sorted(dues)
     late = np.array([now - due for due, now in got])
     assert (late >= 0).all(), late.min()
@@ -102,7 +89,7 @@ async def test_loop_timer_never_hands_over_early_and_each_item_once():
 
 async def test_loop_timer_hands_over_in_due_order_past_ones_first_and_all_due_together():
     now = time.time()
-    got = await _collect_loop([now + 0.03, now - 1.0, now + 0.01, now + 0.02])
+    got = await _collect([now + 0.03, now - 1.0, now + 0.01, now + 0.02], on_loop=True)
     handed = [d for d, _ in sorted(got, key=lambda x: (x[1], x[0]))]
     assert handed == sorted(d for d, _ in got)
     # a loop busy past several due times hands them over in one batch, in due order
