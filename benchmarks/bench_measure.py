@@ -393,8 +393,11 @@ def beacon_body_size() -> int:
 REALTIME_DT, REALTIME_C = 0.05, 0.01  # the realtime runs' tick and radio latency c (issue 22)
 
 
-def realtime_scenario(n: int, seconds: float, behavior: str = PROBE) -> dict:
-    """N beacon-placed robots running ``behavior`` in the realtime clock, dt = 50 ms, c = 10 ms, no trace."""
+def realtime_scenario(n: int, seconds: float, behavior: str = PROBE, params: str = "") -> dict:
+    """N beacon-placed robots running ``behavior`` in the realtime clock, dt = 50 ms, c = 10 ms, no trace.
+
+    ``params``: the behaviour's parameters as TOML inline-table entries (e.g. ``"spread = 1.0"``).
+    """
     return scenario.load(
         BEACON,
         overrides=[
@@ -404,7 +407,7 @@ def realtime_scenario(n: int, seconds: float, behavior: str = PROBE) -> dict:
             f"run.ticks={int(seconds / REALTIME_DT)}",
             f"radio.latency_s={REALTIME_C}",
             "run.trace=false",
-            f'robots.0.behaviors=[{{use = "{behavior}"}}]',
+            f'robots.0.behaviors=[{{use = "{behavior}"{", " + params if params else ""}}}]',
         ],
     )
 

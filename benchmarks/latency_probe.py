@@ -22,6 +22,10 @@ With ``SWARMACTORS_RT_STAMPS=1`` in every process's environment (realtime hosts 
 downlink reached the receiving host's loop, the host's timer woke for it, the loop began handing it over, and
 ``on_frame`` was called: ``parts``.
 
+``spread`` (a fraction of a tick, default 0): each robot broadcasts at its own phase in the tick, drawn once
+from its RNG in ``[0, spread * dt)``, on a timer, instead of every robot at the start of its step; with 0 every
+robot of a host broadcasts within the same few milliseconds (the worst burst for the receiving hosts).
+
 Used by ``benchmarks/bench.py`` as ``use = "latency_probe:LatencyProbe"`` with
 ``benchmarks/`` on ``sys.path``.
 """
@@ -45,7 +49,11 @@ class LatencyProbe(Behavior):
     name = "latency_probe"
     kinds = (KIND,)
 
-    def __init__(self) -> None:
+    def __init__(self, spread: float = 0.0) -> None:
+        if not 0.0 <= spread <= 1.0:
+            raise ValueError(f"latency_probe: spread = {spread!r} is not a fraction of a tick in [0, 1]")
+        self.spread = float(spread)
+        self.phase = 0.0
         self.sent = 0
         self.delays: list[float] = []
         self.uplink: list[float] = []
@@ -54,7 +62,16 @@ class LatencyProbe(Behavior):
         # so that the garbage collector, which would then have more to scan, does not change what is measured)
         self.parts = tuple(array("d") for _ in range(5))
 
+    def on_start(self, ctx) -> None:
+        self.phase = float(ctx.rng.uniform(0.0, self.spread * ctx.dt)) if self.spread else 0.0
+
     def on_tick(self, ctx, sensed) -> None:
+        if self.phase:
+            ctx.after(self.phase, lambda: self._beacon(ctx))
+        else:
+            self._beacon(ctx)
+
+    def _beacon(self, ctx) -> None:
         self.sent += 1
         ctx.broadcast(KIND, [ctx.now, time.monotonic(), time.time()])
 

@@ -41,7 +41,13 @@ ROOT = HERE.parent
 PARTS = ("uplink", "downlink", "slack", "timer", "loop", "queue", "late")
 
 
-def one(n: int, k: int, seconds: float) -> dict:
+def _cpu_s(pid: int) -> float:
+    """A process's CPU time so far (user + system), from /proc (Linux), seconds."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def one(n: int, k: int, seconds: float, spread: float = 0.0) -> dict:
     """One run in this process (hosts inherit the stamps switch); percentiles of every measure."""
     os.environ.setdefault("SWARMACTORS_RT_STAMPS", "1")
     sys.path.insert(0, str(HERE))
@@ -49,14 +55,23 @@ def one(n: int, k: int, seconds: float) -> dict:
     import numpy as np
 
     c = bench.REALTIME_C
+    import multiprocessing
     import time
 
-    marks: list[tuple[int, float]] = []  # (tick, process CPU) at each tick's end: the world's CPU while ticking
+    # (tick, wall clock, the world's process CPU, the host processes' CPU) at each tick's end
+    marks: list[tuple[int, float, float, list[float]]] = []
 
     def on_tick(world) -> None:
-        marks.append((world.tick, time.process_time()))
+        hosts = []
+        for p in multiprocessing.active_children():
+            try:
+                hosts.append(_cpu_s(p.pid))
+            except (OSError, IndexError, ValueError):  # a host that has just exited
+                hosts.append(float("nan"))
+        marks.append((world.tick, time.perf_counter(), time.process_time(), hosts))
 
-    data, _ = bench.run_emulator(bench.realtime_scenario(n, seconds), k, on_tick=on_tick)
+    params = f"spread = {spread}" if spread else ""
+    data, _ = bench.run_emulator(bench.realtime_scenario(n, seconds, params=params), k, on_tick=on_tick)
     delays, mono, parts = [], [], []
     for r in data["robots"].values():
         rep = r.get("latency_probe") or {}
@@ -72,13 +87,20 @@ def one(n: int, k: int, seconds: float) -> dict:
         return {"p50": float(q[0]), "p90": float(q[1]), "p99": float(q[2]), "p999": float(q[3]),
                 "max": float(a.max()), "min": float(a.min())}
 
-    out = {"n": n, "k": k, "ticks": data["ticks"], "samples": len(mono), "load1": os.getloadavg()[0],
+    ticked = max(1, marks[-1][0] - marks[0][0]) if len(marks) > 1 else 0
+    out = {"n": n, "k": k, "spread": spread, "ticks": data["ticks"], "samples": len(mono), "load1": os.getloadavg()[0],
            "call_ms": dist((np.array(mono) - c) * 1e3), "error_ms": dist((np.array(delays) - c) * 1e3),
            "problems": bench.check_run(data, n, data["ticks"]),
            "deliveries_per_tick": data["world"]["deliveries"] / max(1, data["ticks"]),
            # the world's process (with the robots when K = 0), from the end of the first tick to that of the last
-           "world_cpu_ms_per_tick": ((marks[-1][1] - marks[0][1]) * 1e3 / max(1, marks[-1][0] - marks[0][0])
-                                     if len(marks) > 1 else None)}
+           "world_cpu_ms_per_tick": (marks[-1][2] - marks[0][2]) * 1e3 / ticked if ticked else None,
+           # each host process (K > 0), the same span; with the world's, the share of the machine's cores in use
+           "host_cpu_ms_per_tick": ([(b - a) * 1e3 / ticked for a, b in zip(marks[0][3], marks[-1][3], strict=False)]
+                                    if ticked else None)}
+    if ticked:  # CPU seconds per second of the run: how many of the machine's cores the processes kept busy
+        busy = (marks[-1][2] - marks[0][2]) + sum(b - a for a, b in zip(marks[0][3], marks[-1][3], strict=False))
+        out["cores_busy"] = busy / (marks[-1][1] - marks[0][1])
+        out["tick_wall_ms"] = (marks[-1][1] - marks[0][1]) * 1e3 / ticked
     if parts:
         p = np.array(parts) * 1e3  # ms after the broadcast call: scheduled, arrived, woke, handed, on_frame
         due = c * 1e3
@@ -170,20 +192,34 @@ def floor(n_host: int, per_robot: float, repeats: int = 5) -> dict:
     return res
 
 
+def parse_config(text: str) -> tuple[int, int, float]:
+    """``N x K[@spread]`` (e.g. ``1000x2@1``) as (N, K, spread); a clear error for anything else."""
+    try:
+        nk, _, spread = text.partition("@")
+        n, k = (int(x) for x in nk.split("x"))
+        s = float(spread) if spread else 0.0
+    except ValueError:
+        sys.exit(f"--only: {text!r} is not N x K[@spread] (e.g. 1000x2 or 1000x2@1)")
+    if n < 1 or k < 0 or not 0.0 <= s <= 1.0:
+        sys.exit(f"--only: {text!r}: N must be >= 1, K >= 0 and the spread in [0, 1]")
+    return n, k, s
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seconds", type=float, default=6.0)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--big", action="store_true", help="also N = 1000, K = 2")
-    ap.add_argument("--only", default="", help="configurations, e.g. '100x2,1000x2' (default: 100x0,100x2)")
+    ap.add_argument("--only", default="", help="configurations N x K[@spread], e.g. '100x2,1000x2,1000x2@1' "
+                    "(default: 100x0,100x2); spread: the probe's broadcast phases spread over that fraction of a tick")
     ap.add_argument("--tree", action="append", default=[], help="NAME=PATH: a source tree to compare (A/B)")
     ap.add_argument("--env", action="append", default=[], help="NAME:VAR=VALUE: an environment setting per tree")
     ap.add_argument("--out", default=str(HERE / "results" / "realtime_latency.json"))
     ap.add_argument("--floor", action="store_true", help="only the host's CPU cost per tick (no Zenoh)")
-    ap.add_argument("--one", nargs=3, type=float, metavar=("N", "K", "SECONDS"), help=argparse.SUPPRESS)
+    ap.add_argument("--one", nargs=4, type=float, metavar=("N", "K", "SECONDS", "SPREAD"), help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.one:
-        print(json.dumps(one(int(args.one[0]), int(args.one[1]), args.one[2])))
+        print(json.dumps(one(int(args.one[0]), int(args.one[1]), args.one[2], args.one[3])))
         return
     if args.floor:
         rows = [floor(n, 7.43) for n in (50, 100, 500, 1000)]
@@ -192,10 +228,8 @@ def main() -> None:
         path = Path(args.out).with_name("realtime_floor.json")
         path.write_text(json.dumps({"load1": os.getloadavg()[0], "floor": rows}, indent=2) + "\n")
         return
-    if args.only:
-        configs = [tuple(int(x) for x in c.split("x")) for c in args.only.split(",")]
-    else:
-        configs = [(100, 0), (100, 2)] + ([(1000, 2)] if args.big else [])
+    configs = [parse_config(c) for c in args.only.split(",")] if args.only else (
+        [(100, 0, 0.0), (100, 2, 0.0)] + ([(1000, 2, 0.0)] if args.big else []))
     trees = [t.split("=", 1) for t in args.tree] or [["this", str(ROOT)]]
     extra: dict[str, dict[str, str]] = {}
     for e in args.env:
@@ -204,16 +238,18 @@ def main() -> None:
         extra.setdefault(name, {})[var] = val
     runs: dict[str, list[dict]] = {}
     for rep in range(args.repeats):
-        for n, k in configs:
+        for n, k, spread in configs:
+            label = f"N={n} K={k}" + (f" spread={spread:g}" if spread else "")
             for name, path in trees:  # interleaved: every tree once per configuration and repeat
                 env = dict(os.environ, PYTHONPATH=str(Path(path).resolve()), **extra.get(name, {}))
-                res = subprocess.run([sys.executable, __file__, "--one", str(n), str(k), str(args.seconds)],
-                                     env=env, capture_output=True, text=True, check=False)
+                cmd = [sys.executable, __file__, "--one", str(n), str(k), str(args.seconds), str(spread)]
+                res = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False)
                 if res.returncode:
-                    sys.exit(f"run {name} N={n} K={k} failed:\n{res.stderr[-3000:]}")
+                    sys.exit(f"run {name} {label} failed:\n{res.stderr[-3000:]}")
                 r = json.loads(res.stdout.strip().splitlines()[-1])
-                runs.setdefault(f"{name} N={n} K={k}", []).append(r)
-                print(f"[{rep}] {name:6s} N={n:<4d} K={k}  load {r['load1']:.2f}  call p50 "
+                runs.setdefault(f"{name} {label}", []).append(r)
+                print(f"[{rep}] {name:6s} {label:18s} load {r['load1']:.2f}  cores {r.get('cores_busy', 0):.2f}"
+                      f"  call p50 "
                       f"{r['call_ms'].get('p50', 0):6.3f}  p99 {r['call_ms'].get('p99', 0):6.3f}  min "
                       f"{r['call_ms'].get('min', 0):6.3f} ms  {r['problems'] or ''}", flush=True)
     out = {"seconds": args.seconds, "repeats": args.repeats, "c_ms": 10.0, "trees": dict(trees),
@@ -222,7 +258,10 @@ def main() -> None:
         case = {"samples": sum(r["samples"] for r in rs),
                 "never_early": all(r["call_ms"].get("min", 0.0) >= 0.0 for r in rs),
                 "min_ms": min(r["call_ms"].get("min", 0.0) for r in rs),
-                "load1": [round(r["load1"], 2) for r in rs]}
+                "load1": [round(r["load1"], 2) for r in rs],
+                "cores_busy": [round(r["cores_busy"], 2) for r in rs if r.get("cores_busy") is not None],
+                "world_cpu_ms_per_tick": [round(r["world_cpu_ms_per_tick"], 2) for r in rs
+                                          if r.get("world_cpu_ms_per_tick") is not None]}
         for part in ("call", "error") + PARTS:
             for q in ("p50", "p99"):
                 vals = [r[f"{part}_ms"][q] for r in rs if r.get(f"{part}_ms")]
@@ -230,9 +269,9 @@ def main() -> None:
                     case[f"{part}_{q}_ms"] = round(statistics.median(vals), 3)
                     case[f"{part}_{q}_range"] = [round(min(vals), 3), round(max(vals), 3)]
         out["cases"][name] = case
-        print(f"{name:18s} call p50 {case['call_p50_ms']:6.3f} {case['call_p50_range']}  "
+        print(f"{name:30s} call p50 {case['call_p50_ms']:6.3f} {case['call_p50_range']}  "
               f"p99 {case['call_p99_ms']:6.3f} {case['call_p99_range']}"
-              f"  min {case['min_ms']:.3f}  load {case['load1']}")
+              f"  min {case['min_ms']:.3f}  load {case['load1']}  cores {case['cores_busy']}")
         if "late_p50_ms" in case:
             print("    p50/p99 " + "  ".join(f"{p} {case.get(f'{p}_p50_ms', 0):.3f}/{case.get(f'{p}_p99_ms', 0):.3f}"
                                                for p in PARTS))

@@ -115,3 +115,27 @@ def test_realtime_copies_due_are_handed_over_at_once_the_others_per_due_time():
     host._deliver([item for _, item in sorted(timer, key=lambda t: t[0])])
     assert [(rid, [(f.src, f.body, f.rab) for f in fs]) for rid, fs in handed] == [
         (0, [(5, [1], None), (7, "x", None)]), (1, [(7, "x", (0.3, -0.2))])]
+
+
+def test_realtime_timers_due_together_leave_in_one_uplink():
+    """Robots whose timers fire in one pass of the loop send their frames in one uplink (``_rt_flush_soon``)."""
+    import asyncio
+
+    async def run() -> list[list[int]]:
+        host, _, _ = _realtime_host(3)
+        host._loop, host._rt_later = asyncio.get_running_loop(), []
+        sent: list[list[int]] = []
+        host._uplink = lambda tick, rows: rows
+        host.link = type("Link", (), {"publish": staticmethod(lambda key, rows: sent.append([r.id for r in rows]))})()
+        for robot in host.robots.values():
+            host._realtime_timers(robot)
+        loop = asyncio.get_running_loop()
+        when = loop.time() + 0.02
+        for rid in (0, 2):  # two timers due at the same time: one loop pass fires both
+            ctx = host.robots[rid].ctx
+            loop.call_at(when, lambda ctx=ctx: ctx.after(0.0, lambda ctx=ctx: ctx.broadcast("K", [ctx.id])))
+        host.robots[1].ctx.after(0.06, lambda: host.robots[1].ctx.broadcast("K", [1]))  # later: its own uplink
+        await asyncio.sleep(0.12)
+        return sent
+
+    assert asyncio.run(run()) == [[0, 2], [1]]
