@@ -192,6 +192,79 @@ def floor(n_host: int, per_robot: float, repeats: int = 5) -> dict:
     return res
 
 
+def _child(args: list[str], env: dict | None = None) -> dict:
+    """Run this file with ``args`` in a fresh process; its last line of output, as JSON."""
+    res = subprocess.run([sys.executable, __file__, *args], env=env, capture_output=True, text=True, check=False)
+    if res.returncode:
+        sys.exit(f"{' '.join(args)} failed:\n{res.stderr[-3000:]}")
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def scan(sizes: list[int], seconds: float, repeats: int, out: Path) -> None:
+    """Latency - c at each N (K = 2, stamps off) beside the floor of one host's hand-over of a tick's copies.
+
+    Per N and repeat, interleaved: one realtime run (``--one``), then ``floor`` for one host's share (N / 2
+    robots, the run's deliveries per robot) in its own process. A host receives its tick's copies within a
+    few milliseconds (every robot broadcasts at the start of its step), so the time to hand them over in one
+    go, measured without Zenoh, is what the latest of them waits at the least.
+    """
+    env = dict(os.environ, SWARMACTORS_RT_STAMPS="0")
+    rows: dict[int, list[dict]] = {n: [] for n in sizes}
+    for rep in range(repeats):
+        for n in sizes:
+            r = _child(["--one", str(n), "2", str(seconds), "0"], env)
+            f = _child(["--floor-one", str(n // 2), str(r["deliveries_per_tick"] / n)], env)
+            r["floor"] = f
+            rows[n].append(r)
+            print(f"[{rep}] N={n:<5d} load {r['load1']:.2f}  cores {r.get('cores_busy', 0):.2f}  call p50 "
+                  f"{r['call_ms']['p50']:7.3f}  p99 {r['call_ms']['p99']:8.3f} ms   one host's hand-over "
+                  f"{f['handover_ms']:.2f} ms ({f['deliveries']} copies), step {f['step_ms']:.2f} ms", flush=True)
+    med = statistics.median
+    summary = [{"n": n, "p50_ms": med(r["call_ms"]["p50"] for r in rs), "p99_ms": med(r["call_ms"]["p99"] for r in rs),
+                "p99_range": [min(r["call_ms"]["p99"] for r in rs), max(r["call_ms"]["p99"] for r in rs)],
+                "min_ms": min(r["call_ms"]["min"] for r in rs),
+                "cores_busy": med(r["cores_busy"] for r in rs),
+                "world_cpu_ms_per_tick": med(r["world_cpu_ms_per_tick"] for r in rs),
+                "host_cpu_ms_per_tick": med(sum(r["host_cpu_ms_per_tick"]) / 2 for r in rs),
+                "handover_floor_ms": med(r["floor"]["handover_ms"] for r in rs),
+                "step_floor_ms": med(r["floor"]["step_ms"] for r in rs),
+                "copies_per_host": rs[0]["floor"]["deliveries"]} for n, rs in rows.items()]
+    for s in summary:
+        print(f"N={s['n']:<5d} p50 {s['p50_ms']:.3f}  p99 {s['p99_ms']:.3f} {s['p99_range']}"
+              f"  cores {s['cores_busy']:.2f}  one host's hand-over {s['handover_floor_ms']:.2f} ms"
+              f"  step {s['step_floor_ms']:.2f} ms")
+    path = out.with_name("realtime_scan.json")
+    path.write_text(json.dumps({"seconds": seconds, "repeats": repeats, "c_ms": 10.0, "k": 2, "summary": summary,
+                                "runs": {str(n): rs for n, rs in rows.items()}}, indent=2) + "\n")
+    plot_scan(summary, ROOT / "docs" / "img" / "realtime_scan.png")
+    print(f"wrote {path}")
+
+
+def plot_scan(summary: list[dict], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n = [s["n"] for s in summary]
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    lo = [s["p99_ms"] - s["p99_range"][0] for s in summary]
+    hi = [s["p99_range"][1] - s["p99_ms"] for s in summary]
+    ax.errorbar(n, [s["p99_ms"] for s in summary], yerr=[lo, hi], fmt="o-", capsize=3, label="latency - c, p99")
+    ax.plot(n, [s["p50_ms"] for s in summary], "s-", label="latency - c, p50")
+    ax.plot(n, [s["handover_floor_ms"] for s in summary], "k--", label="one host's hand-over of a tick (no Zenoh)")
+    ax.axhline(5.0, color="r", lw=0.8, ls=":", label="target at N = 1000: p99 < 5 ms")
+    ax.set_yscale("log")
+    ax.set_xlabel("robots N (K = 2 host processes)")
+    ax.set_ylabel("ms")
+    ax.set_title("Realtime latency - c (c = 10 ms, dt = 50 ms) against the hand-over floor", fontsize=10)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def parse_config(text: str) -> tuple[int, int, float]:
     """``N x K[@spread]`` (e.g. ``1000x2@1``) as (N, K, spread); a clear error for anything else."""
     try:
@@ -216,10 +289,19 @@ def main() -> None:
     ap.add_argument("--env", action="append", default=[], help="NAME:VAR=VALUE: an environment setting per tree")
     ap.add_argument("--out", default=str(HERE / "results" / "realtime_latency.json"))
     ap.add_argument("--floor", action="store_true", help="only the host's CPU cost per tick (no Zenoh)")
+    ap.add_argument("--scan", default="", help="N values (K = 2), e.g. '200,400,600,800,1000': latency against "
+                    "the floor of one host's hand-over, results/realtime_scan.json and docs/img/realtime_scan.png")
+    ap.add_argument("--floor-one", nargs=2, type=float, metavar=("ROBOTS", "PER_ROBOT"), help=argparse.SUPPRESS)
     ap.add_argument("--one", nargs=4, type=float, metavar=("N", "K", "SECONDS", "SPREAD"), help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.one:
         print(json.dumps(one(int(args.one[0]), int(args.one[1]), args.one[2], args.one[3])))
+        return
+    if args.floor_one:
+        print(json.dumps(floor(int(args.floor_one[0]), args.floor_one[1])))
+        return
+    if args.scan:
+        scan([int(x) for x in args.scan.split(",")], args.seconds, args.repeats, Path(args.out))
         return
     if args.floor:
         rows = [floor(n, 7.43) for n in (50, 100, 500, 1000)]

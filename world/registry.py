@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -35,6 +36,7 @@ class Robots:
         self.heading = np.zeros(0)
         self.vel = np.zeros((0, dims))
         self.alive = np.zeros(0, dtype=bool)
+        self.died_at = np.zeros(0)  # wall-clock time of death (time.time()), inf while alive: realtime fates
         self.range = np.zeros(0)
         self.sensing = np.zeros(0)
         self.speed = np.zeros(0)
@@ -68,6 +70,7 @@ class Robots:
         self.heading = np.concatenate([self.heading, col("heading", 0.0)])
         self.vel = np.vstack([self.vel, np.zeros((len(specs), self.dims))])
         self.alive = np.concatenate([self.alive, np.ones(len(specs), dtype=bool)])
+        self.died_at = np.concatenate([self.died_at, np.full(len(specs), np.inf)])
         self.range = np.concatenate([self.range, col("range", 1.0)])
         self.sensing = np.concatenate([self.sensing, col("sensing", 1.0)])
         self.speed = np.concatenate([self.speed, col("speed", np.inf)])
@@ -93,6 +96,7 @@ class Robots:
         if not self.alive[rid]:
             return False
         self.alive[rid] = False
+        self.died_at[rid] = time.time()
         self.vel[rid] = 0.0
         self.deaths[rid] = Death(tick, cause, error)
         return True

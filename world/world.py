@@ -73,6 +73,9 @@ log = logging.getLogger(__name__)
 
 POS_DIGITS = 6  # positions in traces, state and hashes are rounded to 1e-6 length units
 INTERRUPT_REPORTS_S = 5.0  # an interrupted run waits at most this long for its hosts' final reports
+# realtime: the world records the copies due within one such span together, with one timer (each copy's fate
+# still by its own due time: World._record_fates); a multiple of the clock's BUCKET_S
+BOOKKEEPING_S = 10 * BUCKET_S
 MAX_BACKDATE_S = 0.05  # realtime: a frame's latency runs from at most this long before the world received it
 
 
@@ -89,14 +92,14 @@ class Due(NamedTuple):
     frames: list[tuple[Outgoing, int]]
 
 
-def bucket_groups(delay: np.ndarray, now: float) -> list[np.ndarray]:
-    """Realtime bookkeeping: copies grouped by the ``clock.BUCKET_S`` bucket their due time falls in.
+def bucket_groups(delay: np.ndarray, now: float, width: float = BOOKKEEPING_S) -> list[np.ndarray]:
+    """Realtime bookkeeping: copies grouped by the bucket of ``width`` seconds their due time falls in.
 
     ``delay``: seconds after loop time ``now``; groups are index arrays into it, each in its original order. A
     group is handed to ``RealtimeClock.after`` as one item with its longest delay, which falls in the same bucket
     as each of its copies' or a later one: the clock never fires it before any copy's due time.
     """
-    bucket = np.ceil((now + delay) / BUCKET_S)
+    bucket = np.ceil((now + delay) / width)
     order = np.argsort(bucket, kind="stable")
     return np.split(order, np.flatnonzero(np.diff(bucket[order])) + 1)
 
@@ -680,18 +683,18 @@ class World:
         dst, src, seq, ref, sent, heard = (np.concatenate(col) for col in zip(*parts, strict=True))
         order = np.lexsort((seq, src, dst))
         dst, src, seq, ref, sent, heard = dst[order], src[order], seq[order], ref[order], sent[order], heard[order]
-        keep = self._record_fates(dst, src, seq, sent, heard)
+        keep = self._record_fates(dst, src, seq, sent, heard, self.robots.alive[dst])
         if not keep.any():
             return None
         return Due(dst[keep], ref[keep], src[keep], seq[keep], frames)
 
     def _record_fates(self, dst: np.ndarray, src: np.ndarray, seq: np.ndarray, sent: np.ndarray,
-                      heard: np.ndarray) -> np.ndarray:
-        """Record the copies falling due now; return the mask of those delivered (the copies a robot is handed).
+                      heard: np.ndarray, live: np.ndarray) -> np.ndarray:
+        """Record copies that fell due; return the mask of those delivered (the copies a robot is handed).
 
-        In this order: dropped as ``dead`` (the receiver died meanwhile), overheard, delivered.
+        ``live``: per copy, whether its receiver was alive at its due time. In this order: dropped as ``dead``
+        (the receiver died meanwhile), overheard, delivered.
         """
-        live = self.robots.alive[dst]
         if not live.all():
             for d, s_, q in zip(dst[~live].tolist(), src[~live].tolist(), seq[~live].tolist(), strict=True):
                 self.record.dead(s_, q, d)
@@ -710,12 +713,12 @@ class World:
         earlier than ``MAX_BACKDATE_S`` before the world received the frame and never after it (a host cannot buy
         an earlier delivery by back-dating). A delivery goes to its receiver's host at once, which hands the
         frame to its robot at the due time (swarmactors/precise_timer.py), never earlier; the world's own timer
-        records the delivery in the trace at the same time, or a drop as ``dead`` if the receiver died
-        meanwhile. An overheard copy goes to no host: only the world's timer records it.
+        records the delivery in the trace then (or up to ``BOOKKEEPING_S`` later), or a drop as ``dead`` if the
+        receiver died before the due time. An overheard copy goes to no host: only the world's timer records it.
 
         All copies at once, as arrays: the latencies in one draw (the same values as frame by frame), and the
-        bookkeeping as one timer item per ``clock.BUCKET_S`` bucket (``_rt_deliver`` records a group's copies
-        together, with the array recorders) rather than one per copy.
+        bookkeeping as one timer item per ``BOOKKEEPING_S`` of due times (``_rt_deliver`` records a group's copies
+        together, with the array recorders, each by its own due time) rather than one per copy.
         """
         if not len(dst):
             return
@@ -725,11 +728,11 @@ class World:
         start = np.minimum(received, np.maximum(at, received - MAX_BACKDATE_S))[fr]
         due = start + self.medium.latencies_s(self.tick, src, seq, dst)
         delay = due - received
-        # bookkeeping: one item per bucket the clock will put its copies in (a group's longest delay lands in
-        # the same bucket as every copy of it, or a later one: never before a copy's due time)
+        # bookkeeping: one item per BOOKKEEPING_S span of due times, fired at the group's longest delay: never
+        # before a copy's due time
         groups = bucket_groups(delay, asyncio.get_running_loop().time())
         self.clock.after([float(delay[g].max()) for g in groups],
-                         [(dst[g], src[g], seq[g], heard[g], self.tick) for g in groups])
+                         [(dst[g], src[g], seq[g], heard[g], self.tick, due[g]) for g in groups])
         # the deliveries, per receiving host, at once: each frame once per host, the copies as columns
         to_host = ~heard
         rab = self.situated.rab
@@ -766,11 +769,16 @@ class World:
             self._host_codes_of, self._host_codes_cache = key, (codes, names)
         return self._host_codes_cache
 
-    def _rt_deliver(self, item: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]) -> None:
-        """Realtime bookkeeping at a group of copies' due time: delivered (or overheard), or dropped as ``dead``."""
-        dst, src, seq, heard, sent_tick = item
+    def _rt_deliver(self, item: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, np.ndarray]) -> None:
+        """Realtime bookkeeping once a group of copies fell due: delivered (or overheard), or dropped as ``dead``.
+
+        A copy is ``dead`` when its receiver died before the copy's own due time (``Robots.died_at``), however
+        late this timer fires.
+        """
+        dst, src, seq, heard, sent_tick, due = item
         if not self.finished:
-            self._record_fates(dst, src, seq, np.full(len(dst), sent_tick, dtype=np.int64), heard)
+            self._record_fates(dst, src, seq, np.full(len(dst), sent_tick, dtype=np.int64), heard,
+                               self.robots.died_at[dst] > due)
 
     # ------------------------------------------------------------ actions and failures
     def _apply(self, action: dict, source: str) -> None:
