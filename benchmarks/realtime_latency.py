@@ -192,11 +192,11 @@ def floor(n_host: int, per_robot: float, repeats: int = 5) -> dict:
     return res
 
 
-def _child(args: list[str], env: dict | None = None) -> dict:
+def _child(args: list[str], env: dict | None = None, what: str = "") -> dict:
     """Run this file with ``args`` in a fresh process; its last line of output, as JSON."""
     res = subprocess.run([sys.executable, __file__, *args], env=env, capture_output=True, text=True, check=False)
     if res.returncode:
-        sys.exit(f"{' '.join(args)} failed:\n{res.stderr[-3000:]}")
+        sys.exit(f"{what or ' '.join(args)} failed:\n{res.stderr[-3000:]}")
     return json.loads(res.stdout.strip().splitlines()[-1])
 
 
@@ -301,7 +301,13 @@ def main() -> None:
         print(json.dumps(floor(int(args.floor_one[0]), args.floor_one[1])))
         return
     if args.scan:
-        scan([int(x) for x in args.scan.split(",")], args.seconds, args.repeats, Path(args.out))
+        try:
+            sizes = [int(x) for x in args.scan.split(",")]
+        except ValueError:
+            sys.exit(f"--scan: {args.scan!r} is not a list of robot counts (e.g. 200,400,1000)")
+        if min(sizes) < 2:
+            sys.exit(f"--scan: {args.scan!r}: every N must be >= 2 (two hosts)")
+        scan(sizes, args.seconds, args.repeats, Path(args.out))
         return
     if args.floor:
         rows = [floor(n, 7.43) for n in (50, 100, 500, 1000)]
@@ -324,11 +330,7 @@ def main() -> None:
             label = f"N={n} K={k}" + (f" spread={spread:g}" if spread else "")
             for name, path in trees:  # interleaved: every tree once per configuration and repeat
                 env = dict(os.environ, PYTHONPATH=str(Path(path).resolve()), **extra.get(name, {}))
-                cmd = [sys.executable, __file__, "--one", str(n), str(k), str(args.seconds), str(spread)]
-                res = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False)
-                if res.returncode:
-                    sys.exit(f"run {name} {label} failed:\n{res.stderr[-3000:]}")
-                r = json.loads(res.stdout.strip().splitlines()[-1])
+                r = _child(["--one", str(n), str(k), str(args.seconds), str(spread)], env, f"run {name} {label}")
                 runs.setdefault(f"{name} {label}", []).append(r)
                 print(f"[{rep}] {name:6s} {label:18s} load {r['load1']:.2f}  cores {r.get('cores_busy', 0):.2f}"
                       f"  call p50 "

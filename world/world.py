@@ -92,14 +92,14 @@ class Due(NamedTuple):
     frames: list[tuple[Outgoing, int]]
 
 
-def bucket_groups(delay: np.ndarray, now: float, width: float = BOOKKEEPING_S) -> list[np.ndarray]:
-    """Realtime bookkeeping: copies grouped by the bucket of ``width`` seconds their due time falls in.
+def bucket_groups(delay: np.ndarray, now: float) -> list[np.ndarray]:
+    """Realtime bookkeeping: copies grouped by the ``BOOKKEEPING_S`` span their due time falls in.
 
     ``delay``: seconds after loop time ``now``; groups are index arrays into it, each in its original order. A
     group is handed to ``RealtimeClock.after`` as one item with its longest delay, which falls in the same bucket
     as each of its copies' or a later one: the clock never fires it before any copy's due time.
     """
-    bucket = np.ceil((now + delay) / width)
+    bucket = np.ceil((now + delay) / BOOKKEEPING_S)
     order = np.argsort(bucket, kind="stable")
     return np.split(order, np.flatnonzero(np.diff(bucket[order])) + 1)
 
