@@ -169,6 +169,12 @@ class SwarmTopics:
                 if g.get("body_radius"):
                     self.radius[rid] = float(g["body_radius"])
                 rid += 1
+        self.occluders = None  # obstacles that block links (radio.occlusion), by the occlusion oracle's shapes
+        world = self.scenario.get("world") or {}
+        if (self.scenario.get("radio") or {}).get("occlusion") and (world.get("obstacles") or world.get("map")):
+            from swarmactors.occlusion_oracle import Occluders
+
+            self.occluders = Occluders(world)
         self.colours: dict = {}  # value of the colouring field -> palette index, in order of first appearance
         self.status: dict[int, dict] = {}
         self._events: list | None = None  # the scene's list of events, and how many of them were published
@@ -203,8 +209,9 @@ class SwarmTopics:
         if objects_key != self.objects_key:
             self.objects_key = objects_key
             out.append(("/world", ns, self._world(scene)))
-        out.append(("/tf", ns, self._transforms(t, scene.pos, headings)))
-        out.append(("/robots/poses", ns, self._poses(t, scene.pos, headings)))
+        transforms, poses = self._transforms_and_poses(t, scene.pos, headings)
+        out.append(("/tf", ns, transforms))
+        out.append(("/robots/poses", ns, poses))
         changed = self._status_changes(scene, rec if every_tick else None)
         if changed:
             out.append(("/robots/status", ns, {"tick": t, "robots": changed}))
@@ -212,8 +219,9 @@ class SwarmTopics:
         if bodies != self.bodies_key:
             self.bodies_key = bodies
             out.append(("/robots/bodies", ns, self._bodies(t, scene)))
-        out.append(("/radio/links", ns, self._links(t, scene)))
-        out.append(("/radio/frames", ns, self._frames(t, scene.pos, rec or {})))
+        points = self._robot_points(scene.pos)
+        out.append(("/radio/links", ns, self._links(t, scene, points)))
+        out.append(("/radio/frames", ns, self._frames(t, scene.pos, rec or {}, points)))
         out.append(("/radio/counts", ns, self._counts(t, rec, scene, every_tick)))
         return [(topic, when, encode(msg)) for topic, when, msg in out]
 
@@ -249,20 +257,20 @@ class SwarmTopics:
     def _log(self, t: int, level: str, name: str, text: str):
         return self.fg.Log(timestamp=self._stamp(t), level=getattr(self.fg.LogLevel, level), message=text, name=name)
 
-    def _transforms(self, t: int, pos: list, headings: dict):
+    def _transforms_and_poses(self, t: int, pos: list, headings: dict):
+        """``/tf`` and ``/robots/poses`` of the same robots, sharing each robot's position and rotation."""
         fg, stamp = self.fg, self._stamp(t)
-        out = []
+        vector, quaternion, transform, pose = fg.Vector3, fg.Quaternion, fg.FrameTransform, fg.Pose
+        transforms, poses = [], []
         for row in pos:
             qx, qy, qz, qw = yaw_quaternion(headings.get(row[0]))
-            out.append(fg.FrameTransform(
-                timestamp=stamp, parent_frame_id=WORLD_FRAME, child_frame_id=f"robot/{row[0]}",
-                translation=fg.Vector3(x=row[1], y=row[2], z=row[3] if len(row) > 3 else 0.0),
-                rotation=fg.Quaternion(x=qx, y=qy, z=qz, w=qw)))
-        return fg.FrameTransforms(transforms=out)
-
-    def _poses(self, t: int, pos: list, headings: dict):
-        return self.fg.PosesInFrame(timestamp=self._stamp(t), frame_id=WORLD_FRAME, poses=[
-            self._pose(row[1], row[2], row[3] if len(row) > 3 else 0.0, headings.get(row[0])) for row in pos])
+            v = vector(x=row[1], y=row[2], z=row[3] if len(row) > 3 else 0.0)
+            q = quaternion(x=qx, y=qy, z=qz, w=qw)
+            transforms.append(transform(timestamp=stamp, parent_frame_id=WORLD_FRAME, child_frame_id=f"robot/{row[0]}",
+                                        translation=v, rotation=q))
+            poses.append(pose(position=v, orientation=q))
+        return (fg.FrameTransforms(transforms=transforms),
+                fg.PosesInFrame(timestamp=stamp, frame_id=WORLD_FRAME, poses=poses))
 
     def _status_changes(self, scene: Scene, rec: dict | None) -> list[dict]:
         if rec is not None:
@@ -277,7 +285,7 @@ class SwarmTopics:
         """A palette index per value of the colouring field (strings, booleans, integers; floats get none)."""
         if value is None or isinstance(value, float) or not isinstance(value, (str, bool, int)):
             return None
-        key = json.dumps(value)
+        key = (type(value), value)
         if key not in self.colours:
             self.colours[key] = len(self.colours)
         return self.colours[key] % len(PALETTE)
@@ -323,16 +331,26 @@ class SwarmTopics:
         return fg.SceneUpdate(deletions=[fg.SceneEntityDeletion(timestamp=stamp, type=fg.SceneEntityDeletionType.All)],
                               entities=entities)
 
-    def _lines(self, points: Iterable[tuple], rgba: tuple, thickness: float = 2.0):
+    def _lines(self, points: Iterable[tuple], rgba: tuple, thickness: float = 2.0, indices: list[int] | None = None):
+        """A line list: segments between consecutive pairs of ``points`` (tuples or Point3), or of ``indices``."""
         fg = self.fg
         return fg.LinePrimitive(type=fg.LinePrimitiveLineType.LineList, pose=self._pose(0.0, 0.0),
                                 thickness=thickness, scale_invariant=True,
-                                points=[fg.Point3(x=p[0], y=p[1], z=p[2] if len(p) > 2 else 0.0) for p in points],
-                                color=fg.Color(r=rgba[0], g=rgba[1], b=rgba[2], a=rgba[3]))
+                                points=[p if isinstance(p, fg.Point3) else
+                                        fg.Point3(x=p[0], y=p[1], z=p[2] if len(p) > 2 else 0.0) for p in points],
+                                color=fg.Color(r=rgba[0], g=rgba[1], b=rgba[2], a=rgba[3]), indices=indices)
 
-    def _links(self, t: int, scene: Scene):
-        """Pairs within each other's range (the disk graph the viewer draws: cuts and walls not applied)."""
-        points = []
+    def _robot_points(self, pos: list) -> list:
+        """A Point3 per alive robot, in the order of ``pos``: the line lists index them."""
+        point = self.fg.Point3
+        return [point(x=row[1], y=row[2], z=row[3] if len(row) > 3 else 0.0) for row in pos]
+
+    def _links(self, t: int, scene: Scene, points: list):
+        """Pairs within each other's range and, with ``radio.occlusion``, not behind an obstacle.
+
+        The radio graph of ``Result.graph_at`` without the cuts and partitions of events.
+        """
+        keep = []
         if len(scene.pos) > 1:
             xyz = np.array([[*row[1:3], row[3] if len(row) > 3 else 0.0] for row in scene.pos], dtype=float)
             rng = np.array([self._range(scene, row[0]) for row in scene.pos])
@@ -340,30 +358,32 @@ class SwarmTopics:
             if len(pairs):
                 d = np.linalg.norm(xyz[pairs[:, 0]] - xyz[pairs[:, 1]], axis=1)
                 keep = pairs[(d <= rng[pairs[:, 0]]) & (d <= rng[pairs[:, 1]])]
-                points = xyz[keep.ravel()].tolist()
+                if self.occluders is not None:
+                    keep = [pair for pair in keep if not self.occluders.blocks(xyz[pair[0]], xyz[pair[1]])]
+                keep = np.asarray(keep, dtype=int).ravel().tolist()
         fg = self.fg
         return fg.SceneUpdate(entities=[fg.SceneEntity(
             timestamp=self._stamp(t), frame_id=WORLD_FRAME, id="links",
-            lines=[self._lines(points, (0.55, 0.55, 0.55, 0.6), 1.0)] if points else [])])
+            lines=[self._lines(points, (0.55, 0.55, 0.55, 0.6), 1.0, keep)] if keep else [])])
 
-    def _frames(self, t: int, pos: list, rec: dict):
-        at = {row[0]: (row[1], row[2], row[3] if len(row) > 3 else 0.0) for row in pos}
+    def _frames(self, t: int, pos: list, rec: dict, points: list):
+        at = {row[0]: i for i, row in enumerate(pos)}
 
-        def segments(rows, keep=lambda row: True) -> list:
-            pts = []
+        def segments(rows, lost: bool) -> list[int]:
+            out = []
             for row in rows:
                 a, b = at.get(row[0]), at.get(row[2])
-                if a is not None and b is not None and keep(row):
-                    pts += [a, b]
-            return pts
+                if a is not None and b is not None and (not lost or row[3] in LOST):
+                    out += [a, b]
+            return out
 
         lines = []
-        for rows, rgba, keep in ((rec.get("del", ()), (0.1, 0.7, 0.2, 0.9), None),
-                                 (rec.get("ovh", ()), (0.6, 0.6, 0.6, 0.7), None),
-                                 (rec.get("drop", ()), (0.85, 0.1, 0.1, 0.9), lambda row: row[3] in LOST)):
-            pts = segments(rows, keep) if keep else segments(rows)
-            if pts:
-                lines.append(self._lines(pts, rgba))
+        for rows, rgba, lost in ((rec.get("del", ()), (0.1, 0.7, 0.2, 0.9), False),
+                                 (rec.get("ovh", ()), (0.6, 0.6, 0.6, 0.7), False),
+                                 (rec.get("drop", ()), (0.85, 0.1, 0.1, 0.9), True)):
+            indices = segments(rows, lost)
+            if indices:
+                lines.append(self._lines(points, rgba, 2.0, indices))
         fg = self.fg
         return fg.SceneUpdate(entities=[fg.SceneEntity(timestamp=self._stamp(t), frame_id=WORLD_FRAME, id="frames",
                                                        lines=lines)])
