@@ -28,7 +28,7 @@ from typing import Any
 import msgspec
 import numpy as np
 
-from swarmactors.behavior import Behavior, Context, Frame, Sensed
+from swarmactors.behavior import Behavior, Context, Frame, Sensed, params_problem
 from swarmactors.knownmap import KnownMap
 from swarmactors.plugins import RefusedBehavior, resolve_behavior
 from swarmactors.precise_timer import LoopTimer, PreciseTimer, plain_loop, precise_loop
@@ -114,6 +114,9 @@ class Robot:
                     raise ValueError(f"behaviour {spec.get('use')!r} does not support sensing_frame = "
                                      f"{descr.sensing_frame!r} (it supports {', '.join(cls.frames)})")
                 params = {k: v for k, v in spec.items() if k not in ("use", "as")}
+                problem = params_problem(cls, params)  # the scenario's checks again: a spec may come from the wire
+                if problem:
+                    raise RefusedBehavior(f"refused behaviour {spec.get('use')!r}: {problem}")
                 b = cls(**params)
                 self.behaviors.append(b)
                 self.report_names.append(spec.get("as") or type(b).name or spec["use"])
