@@ -165,8 +165,8 @@ def test_mcap_holds_what_the_trace_holds(tmp_path, capsys):
                                    "dropped": {"range": 0, "loss": 1, "cut": 0, "occluded": 0, "bandwidth": 0,
                                                "dead": 1}}
     frames = got["/radio/frames"][1][1].entities[0].lines
-    assert [len(line.points) for line in frames] == [2, 2, 2]  # delivered, overheard, lost: one segment each
-    assert (frames[0].points[0].x, frames[0].points[1].x) == (0.0, 1.0)  # from robot 0 to robot 1
+    assert [list(line.indices) for line in frames] == [[0, 1], [0, 2], [0, 2]]  # delivered, overheard, lost
+    assert [p.x for p in frames[0].points] == [0.0, 1.0, 2.0]  # the robots' points, which the indices name
 
     world = got["/world"]
     assert [round(ns / 1e9 / DT) for ns, _ in world] == [0, 3]  # at the start, and when the goal moved
