@@ -487,11 +487,11 @@ def emulated_experiment(cr: float, method: str, seed: int, episodes: int = 100, 
                 await asyncio.sleep(0.0005)
 
         def alive() -> list[int]:
-            return [int(r) for r in np.flatnonzero(world.robots.alive)]
+            return [int(r) for r in np.flatnonzero(world.sim.robots.alive)]
 
         def busy() -> bool:
             for r in alive():
-                st = world.robots.status[r]
+                st = world.sim.robots.status[r]
                 if st.get("role") in BUSY_ROLES or st.get("moving"):
                     return True
             return False
@@ -509,7 +509,7 @@ def emulated_experiment(cr: float, method: str, seed: int, episodes: int = 100, 
                     return t
 
         def positions() -> np.ndarray:
-            return np.array([world.robots.pos[r][:2] for r in alive()], dtype=float).reshape(-1, 2)
+            return np.array([world.sim.robots.pos[r][:2] for r in alive()], dtype=float).reshape(-1, 2)
 
         async def drive() -> None:
             t = 1
@@ -540,7 +540,7 @@ def emulated_experiment(cr: float, method: str, seed: int, episodes: int = 100, 
                     t = await settle(t, 2)
                     others = before if len(ids) else np.zeros((0, 2))
                     best = join_position(others, safe, method="heuristic") if len(others) else None
-                    truth["joins"][len(world.robots.status) - 1] = None if best is None else best[1]
+                    truth["joins"][len(world.sim.robots.status) - 1] = None if best is None else best[1]
                 else:
                     victim = ids[int(rng.integers(len(ids)))]
                     vpos = before[ids.index(victim)]

@@ -478,7 +478,7 @@ class RobotHost:
     async def _world_silent(self, world_gone: asyncio.Event) -> None:
         """Return when the world's token vanishes, or when it sent nothing for 2·watchdog_s + 5 s.
 
-        A world, even paused, acks each host every ``watchdog_s`` (World._keep_hosts_informed); this host's own
+        A world, even paused, acks each host every ``watchdog_s`` (WorldSession._keep_hosts_informed); this host's own
         uplinks count as activity too, so a long step of its own is not taken for the world's silence.
         """
         limit = host_loss_s(self.run_info.watchdog_s)

@@ -35,7 +35,7 @@ from swarmactors.scenario import world_spec
 from swarmactors.trace import TraceWriter
 from transport import Endpoints, Keys, Link, lease_settings, new_key
 from transport.auth import RUN_SECRET_ENV, run_secret_from_env
-from world import POS_DIGITS, World
+from world import POS_DIGITS, WorldSession
 
 log = logging.getLogger(__name__)
 HASH_SEED = "0"
@@ -114,8 +114,8 @@ async def run_world(
     run_id: str,
     processes: int = 0,
     local_host: bool = True,
-    on_tick: Callable[[World], None] | None = None,
-    on_open: Callable[[World, Link], None] | None = None,
+    on_tick: Callable[[WorldSession], None] | None = None,
+    on_open: Callable[[WorldSession, Link], None] | None = None,
     run_secret: bytes | None = None,
 ) -> Result:
     """Run a resolved scenario's world (and, if asked, its hosts) to a Result on disk.
@@ -127,7 +127,7 @@ async def run_world(
         run_secret = run_secret_from_env() or (new_key() if local_host else None)
     loop = asyncio.get_running_loop()
     interrupted: str | None = None  # the signal that ended the run, if one did
-    world: World | None = None
+    world: WorldSession | None = None
 
     def interrupt(name: str) -> None:
         """SIGINT and SIGTERM end the run the same way; one that comes before the world exists stops it at once."""
@@ -158,14 +158,14 @@ async def run_world(
         # the session lease follows the documented rule 2·watchdog_s + 5 (transport.lease_settings)
         endpoints = dataclasses.replace(endpoints, extra={**lease_settings(watchdog_s), **endpoints.extra})
         with Link(endpoints, loop) as link:
-            world = World(world_spec(sc), link, keys, sinks=[writer], on_tick=on_tick, run_secret=run_secret)
+            world = WorldSession(world_spec(sc), link, keys, sinks=[writer], on_tick=on_tick, run_secret=run_secret)
             world.open()
             if on_open:
                 on_open(world, link)
             if interrupted is not None:  # a signal came while the world was being set up
                 world.request_stop(f"interrupted ({interrupted})", interrupted=True)
             try:
-                n = len(world.robots)
+                n = len(world.sim.robots)
                 k = min(processes, n)
                 if k > 0:
                     endpoint = link.locators()[0]

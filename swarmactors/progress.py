@@ -44,7 +44,7 @@ class RunProgress:
         if now - self._last < 0.1 and world.tick + 1 < world.ticks:
             return
         self._last = now
-        c = world.counters
+        c = world.sim.counters
         self.progress.update(self.task, completed=world.tick + 1, frames=c.sent, delivered=c.delivered,
                              dropped=sum(c.dropped.values()))
 

@@ -292,7 +292,7 @@ class _SceneSink:
         scene.feed_record(rec)
         for ev in rec.get("ev", ()):
             for rid in ev.get("added", ()):
-                scene.ranges[rid] = float(self.world.robots.range[rid])
+                scene.ranges[rid] = float(self.world.sim.robots.range[rid])
         if scene.ticks is not None and rec["t"] + 1 >= scene.ticks:
             scene.finished = True
         self.source.notify()

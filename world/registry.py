@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -17,14 +18,11 @@ class Death:
 
 @dataclass
 class HostEntry:
+    """A host as the simulation sees it: the robots it runs and what it must be told of them."""
+
     name: str
     robots: set[int] = field(default_factory=set)
     alive: bool = True
-    reported: bool = False  # final reports received
-    registered: bool = False  # its registration step (tick -1) arrived (lockstep: once only)
-    joined_at: float = 0.0  # time.monotonic() of its join: it must register within register_within_s
-    last_down: float = 0.0  # time.monotonic() of its last downlink (World._keep_hosts_informed)
-    key: bytes = b""  # per-host uplink authentication key (transport.auth)
     pending_dead: list[int] = field(default_factory=list)  # robots that died since its last inputs
     pending_new: list = field(default_factory=list)  # RobotDescr of robots given to it since then
 
@@ -32,13 +30,15 @@ class HostEntry:
 class Robots:
     """Arrays of true state, indexed by robot id (ids are 0, 1, 2, ... in order of creation)."""
 
-    def __init__(self, dims: int):
+    def __init__(self, dims: int, now: Callable[[], float] = time.time):
+        """``now``: the simulation's time, for ``died_at`` (ticks in lockstep, wall-clock seconds in realtime)."""
         self.dims = dims
+        self.now = now
         self.pos = np.zeros((0, dims))
         self.heading = np.zeros(0)
         self.vel = np.zeros((0, dims))
         self.alive = np.zeros(0, dtype=bool)
-        self.died_at = np.zeros(0)  # wall-clock time of death (time.time()), inf while alive: realtime fates
+        self.died_at = np.zeros(0)  # the simulation's time of death (``now``), inf while alive: fates of copies
         self.range = np.zeros(0)
         self.sensing = np.zeros(0)
         self.speed = np.zeros(0)
@@ -98,7 +98,7 @@ class Robots:
         if not self.alive[rid]:
             return False
         self.alive[rid] = False
-        self.died_at[rid] = time.time()
+        self.died_at[rid] = self.now()
         self.vel[rid] = 0.0
         self.deaths[rid] = Death(tick, cause, error)
         return True
