@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from swarmactors.behavior import Behavior, Context
-from swarmactors.host import Robot, SensedView
+from swarmactors.robot import Robot, SensedView
 from swarmactors.robot_clock import RobotClock, robot_clock
 from transport.messages import RobotDescr, RunInfo
 
@@ -37,25 +37,22 @@ def test_local_time_under_offset_and_drift():
 
 
 def test_ctx_now_and_lockstep_timers_run_on_the_robots_clock():
-    ctx = Context(0, np.random.default_rng(0), "lockstep")
-    ctx._own_clock = RobotClock(2.0, 1e5, "lockstep", 1.0)  # local = 1.1 t + 2
+    ctx = Context(0, np.random.default_rng(0), "lockstep", own_clock=RobotClock(2.0, 1e5, "lockstep", 1.0))  # 1.1 t + 2
     fired = []
     ctx._set_time(0, 0)
     assert (ctx.tick, ctx.now) == (0, pytest.approx(2.0))
     ctx.after(5.0, lambda: fired.append(ctx.tick))  # due at local 7.0: true tick 5/1.1 = 4.55 -> tick 5
-    robot = types.SimpleNamespace(ctx=ctx)
     for tick in range(1, 8):
         ctx._set_time(tick, tick)
-        for fn in Robot.due_timers(robot):
+        for fn in ctx._due_timers():
             fn()
     assert fired == [5]
 
 
 def test_realtime_delays_are_turned_into_true_seconds():
-    ctx = Context(0, np.random.default_rng(0), "realtime")
-    ctx._own_clock = RobotClock(0.0, -5e4, "realtime", 0.1)
+    ctx = Context(0, np.random.default_rng(0), "realtime", own_clock=RobotClock(0.0, -5e4, "realtime", 0.1))
     scheduled = []
-    ctx._on_timer = lambda delay, fn: scheduled.append(delay)
+    ctx._schedule_with(lambda delay, fn: scheduled.append(delay))
     ctx.after(0.95, print)
     assert scheduled == [pytest.approx(1.0)]
 
@@ -82,7 +79,9 @@ def test_the_host_builds_the_clock_and_checks_the_frame():
     assert robot.error is None and robot.local and robot.ctx.sensing_frame == "local"
     robot.ctx._set_time(3, 3)
     assert robot.ctx.now == pytest.approx(3 * 1.0001 + 2.0)  # 1 s = 2 ticks of 0.5 s
-    assert _robot("GlobalOnly").error is None and _robot("GlobalOnly").ctx._own_clock is None
+    plain = _robot("GlobalOnly")
+    plain.ctx._set_time(3, 3)
+    assert plain.error is None and plain.ctx.now == 3  # no offset, no drift: the world's time
     refused = _robot("GlobalOnly", sensing_frame="local")
     assert refused.error and "clock_mod:GlobalOnly" in refused.error and "local" in refused.error
 
