@@ -462,7 +462,7 @@ def _component(file: str, func: str) -> str:
         return "waiting (epoll: Zenoh round trips, other processes)"
     for part, name in (
         ("/world/", "world/ (tick loop, radio, sensing)"),
-        ("/swarmactors/host.py", "swarmactors/host.py (robot host)"),
+        ("/swarmactors/robot/", "swarmactors/robot/ (robot runtime and host session)"),
         ("/swarmactors/behavior.py", "swarmactors/behavior.py (context)"),
         ("/swarmactors/trace.py", "swarmactors/trace.py (trace hash)"),
         ("/transport/", "transport/ (codec, link)"),
@@ -529,9 +529,9 @@ def summarise_profile(stats: pstats.Stats, top: int = 15) -> dict:
             "  World._take": cum("world/world.py", "_take"),
             "  World.end": cum("world/world.py", "end"),
             "World._on_up_put": cum("world/world.py", "_on_up_put"),
-            "RobotHost._run_lockstep": cum("swarmactors/host.py", "_run_lockstep"),
-            "  RobotHost._step_lockstep": cum("swarmactors/host.py", "_step_lockstep"),
-            "RobotHost._on_down": cum("swarmactors/host.py", "_on_down"),
+            "HostSession._run_lockstep": cum("swarmactors/robot/session.py", "_run_lockstep"),
+            "  RobotRuntime.step": cum("swarmactors/robot/runtime.py", "step"),
+            "HostSession._on_down": cum("swarmactors/robot/session.py", "_on_down"),
             "message decode, all callers (transport.messages.decode)": cum("transport/messages.py", "decode"),
             "message encode, all callers (transport.messages.encode)": cum("transport/messages.py", "encode"),
         },
@@ -616,7 +616,7 @@ def profile_k2(n: int, ticks: int) -> dict:
 
     # busy = time running the tick loop's own code (coroutine time counts only while resumed)
     world_busy = world["stages"]["LockstepClock.run"] + world["stages"]["World._on_up_put"]
-    host_busy = [h["stages"]["RobotHost._run_lockstep"] + h["stages"]["RobotHost._on_down"] for h in hosts]
+    host_busy = [h["stages"]["HostSession._run_lockstep"] + h["stages"]["HostSession._on_down"] for h in hosts]
     return {
         "n": n,
         "k": 2,

@@ -6,10 +6,11 @@
 One host runs N beacon robots on a grid (spacing 0.5, range 0.75: up to 8 neighbours, as scenarios/beacon.toml).
 The tick inputs are built once, the way the world builds them (``transport.messages.Inputs``: a frame table
 with each frame once, every robot's inbox as indices into it, its sensed neighbours), and encoded; what is
-timed is what a host does with them: ``decode`` of the downlink, ``RobotHost._step_lockstep`` (hook dispatch,
+timed is what a host does with them: ``decode`` of the downlink, ``RobotRuntime.step`` (hook dispatch,
 the beacon's own hooks, frame bodies) and the uplink's ``encode`` — no Zenoh, no world. The baseline commit's
-tree is unpacked from git (``git archive``) and each run is a fresh process on one tree or the other
-(``PYTHONPATH``), so each side builds and decodes its own wire format (the inputs became columns in issue 21);
+tree is unpacked from git (``git archive``) and each run is a fresh process running that tree's own copy of
+this script in ``--one`` mode on that tree (``PYTHONPATH``), so each side builds and decodes its own wire format
+and steps its host through its own API; the baseline's copy must have ``--one`` (commits from 30ba8fc on);
 runs are interleaved (A B B A …), ``--repeats`` times each, with the product's GC setting
 (``swarmactors.hosting.quiet_gc``). The robots' reports must agree. ``--profile`` prints a cProfile of this
 tree's step instead. Nothing is asserted; the numbers go to docs/benchmarks.md ("A robot host's step").
@@ -33,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from swarmactors.hosting import quiet_gc
+from swarmactors.robot import RobotRuntime
 from transport.codec import pack
 from transport.messages import Downlink as DownlinkType
 from transport.messages import FrameIn, Inputs, RobotDescr, RobotIn, RunInfo, Uplink, decode, encode
@@ -45,19 +47,15 @@ from world_tick import unpack  # noqa: E402  (a commit's tree, unpacked once)
 
 
 def one_run(tree: Path, args) -> dict:
-    """One run of this script's ``--one`` mode on ``tree`` (its own host and wire format), in a fresh process."""
+    """One run of ``tree``'s own copy of this script in ``--one`` mode, in a fresh process."""
     env = {**os.environ, "PYTHONPATH": f"{tree}:{tree / 'benchmarks'}", "PYTHONHASHSEED": "0"}
-    cmd = [sys.executable, str(Path(__file__).resolve()), "--one", "--n", str(args.n), "--ticks", str(args.ticks)]
+    cmd = [sys.executable, str(tree / "benchmarks" / "host_step.py"), "--one", "--n", str(args.n),
+           "--ticks", str(args.ticks)]
     p = subprocess.run(cmd + (["--idle"] if args.idle else []), cwd=tree, env=env, capture_output=True, text=True,
                        timeout=1800)
     if p.returncode != 0:
         raise RuntimeError(f"{tree}: {p.stderr[-2000:]}")
     return json.loads(p.stdout.strip().splitlines()[-1])
-
-
-class _NoLink:
-    def publish(self, *a, **k) -> None:
-        pass
 
 
 def grid(n: int, spacing: float = 0.5) -> np.ndarray:
@@ -91,33 +89,28 @@ def build_inputs(n: int, ticks: int, idle: bool = False) -> tuple[list[bytes], l
     return out, descr
 
 
-def run_once(mod, inputs: list[bytes], descr: list[RobotDescr]) -> tuple[float, int, dict]:
-    """CPU seconds for the host of ``mod`` to take ``inputs`` tick by tick; deliveries; the robots' reports."""
-    host = mod.RobotHost(_NoLink(), mod.Keys("bench"), allow=("idle_behavior",))
-    host.name, host.key = "h0", b"k" * 32
-    host.run_info = RunInfo("lockstep", 1.0, 1, len(inputs), 10.0, 0)
-    for dsc in descr:
-        host._adopt(dsc)
+def run_once(inputs: list[bytes], descr: list[RobotDescr]) -> tuple[float, int, dict]:
+    """CPU seconds for a host's runtime to take ``inputs`` tick by tick; deliveries; the robots' reports."""
+    runtime = RobotRuntime(RunInfo("lockstep", 1.0, 1, len(inputs), 10.0, 0), allow=("idle_behavior",))
+    runtime.adopt(descr)
     deliveries = sum(len(r.inbox) for data in inputs for r in decode(data, DownlinkType, what="d").robots)
 
     async def steps() -> float:
         t0 = time.process_time()  # CPU time: the machine is shared, and this is one thread's work
         for data in inputs:
             msg = decode(data, DownlinkType, what="downlink")
-            host.tick = msg.tick
-            rows = await host._step_lockstep(msg)
-            encode(Uplink(host.name, host.tick, rows))
+            rows = await runtime.step(msg)
+            encode(Uplink("h0", msg.tick, rows))
         return time.process_time() - t0
 
     with quiet_gc():
         wall = asyncio.run(steps())
-    reports = {rid: r.report() for rid, r in host.robots.items()}
-    return wall, deliveries, reports
+    return wall, deliveries, runtime.reports()
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--base", default="0dc0e96", help="baseline commit (default: main before this session's work)")
+    ap.add_argument("--base", default="56fee55", help="baseline commit (default: the last before swarmactors/robot/)")
     ap.add_argument("--n", type=int, default=1000)
     ap.add_argument("--ticks", type=int, default=30)
     ap.add_argument("--repeats", type=int, default=7)
@@ -127,16 +120,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=None, help="write the runs as JSON here")
     args = ap.parse_args(argv)
     if args.one or args.profile:
-        import swarmactors.host as mod
         inputs, descr = build_inputs(args.n, args.ticks, args.idle)
         if args.profile:
             prof = cProfile.Profile()
             prof.enable()
-            run_once(mod, inputs, descr)
+            run_once(inputs, descr)
             prof.disable()
             pstats.Stats(prof).sort_stats("tottime").print_stats(20)
             return 0
-        cpu, deliveries, reports = run_once(mod, inputs, descr)
+        cpu, deliveries, reports = run_once(inputs, descr)
         print(json.dumps({"cpu_s": cpu, "deliveries": deliveries,
                           "reports": hashlib.sha256(json.dumps(reports, sort_keys=True).encode()).hexdigest()}))
         return 0

@@ -120,10 +120,11 @@ def one(n: int, k: int, seconds: float, spread: float = 0.0) -> dict:
 def floor(n_host: int, per_robot: float, repeats: int = 5) -> dict:
     """CPU cost of one realtime host's work per tick, in this process, no Zenoh: ``n_host`` probe robots.
 
-    A tick's deliveries for the host (``per_robot`` each, random senders) are handed over in one burst (the
-    host's ``_deliver``, as if all fell due at once), the same frames' ``on_frame`` calls are made alone, the
-    host steps its robots once (``_rt_tick``, each robot's frame encoded and sealed for the uplink), and the
-    downlink's ``Deliveries`` message is decoded. Medians of ``repeats``, CPU time of this thread.
+    A tick's deliveries for the host (``per_robot`` each, random senders, all due already) are handed over in
+    one burst (``RobotRuntime.take_deliveries``: grouped by due time, then handed to the robots), the same
+    frames' ``on_frame`` calls are made alone, the host steps its robots once (``RobotRuntime.take_inputs`` in
+    one slice, each robot's frame encoded and sealed for the uplink), and the downlink's ``Deliveries`` message
+    is decoded. Medians of ``repeats``, CPU time of this thread.
     """
     import asyncio
     import time
@@ -132,13 +133,27 @@ def floor(n_host: int, per_robot: float, repeats: int = 5) -> dict:
 
     sys.path.insert(0, str(HERE))
     from swarmactors.behavior import Frame
-    from swarmactors.host import RobotHost
-    from transport import Keys, pack
-    from transport.messages import Deliveries, Downlink, FrameIn, Inputs, RobotDescr, RobotIn, RunInfo, decode, encode
+    from swarmactors.robot import RobotRuntime
+    from transport import pack, seal
+    from transport.messages import (
+        Deliveries,
+        Downlink,
+        FrameIn,
+        Inputs,
+        RobotDescr,
+        RobotIn,
+        RunInfo,
+        Uplink,
+        decode,
+        encode,
+    )
 
-    class NoLink:  # the uplink's bytes are built (encoded, sealed) and then dropped
-        def publish(self, key, data, reliable=True):
-            pass
+    def uplink(rows) -> None:  # the uplink's bytes are built (encoded, sealed) and then dropped
+        seal(b"k" * 32, encode(Uplink("h1", 1, rows)))
+
+    class NoTimer:  # every copy is due already: none waits
+        def add(self, due, item):
+            raise AssertionError("a copy went on the timer")
 
     rng = np.random.default_rng(1)
     d_total = int(round(n_host * per_robot))
@@ -146,14 +161,10 @@ def floor(n_host: int, per_robot: float, repeats: int = 5) -> dict:
     cpu = time.thread_time
 
     async def once() -> None:
-        host = RobotHost(NoLink(), Keys("floor"), allow=("latency_probe",))
-        host.name, host.key = "h1", b"k" * 32
-        host.run_info = RunInfo("realtime", 0.05, 1, 100, 5.0, 0)
-        for i in range(n_host):
-            host._adopt(RobotDescr(i, [float(i), 0.0, 0.0], [{"use": "latency_probe:LatencyProbe"}], "r", 10.0,
-                                   5.0, 1.0))
-        host._stopped, host._epoch, host._loop, host.tick = asyncio.Event(), time.time(), asyncio.get_running_loop(), 0
-        host._rt_next = None
+        runtime = RobotRuntime(RunInfo("realtime", 0.05, 1, 100, 5.0, 0), allow=("latency_probe",))
+        runtime.adopt([RobotDescr(i, [float(i), 0.0, 0.0], [{"use": "latency_probe:LatencyProbe"}], "r", 10.0, 5.0,
+                                  1.0) for i in range(n_host)])
+        runtime.start_realtime(uplink, NoTimer(), slice_size=n_host)  # one slice: the whole step at once
         now = time.time()
         dst = rng.integers(0, n_host, d_total)
         src = rng.integers(0, 2 * n_host, d_total)
@@ -166,9 +177,9 @@ def floor(n_host: int, per_robot: float, repeats: int = 5) -> dict:
         decode(wire, Downlink, what="floor")
         out["decode_ms"].append((cpu() - t) * 1e3)
         t = cpu()
-        host._deliver([(msg, *(c.tolist() for c in msg.arrays()[:2]), list(range(d_total)))])
+        runtime.take_deliveries(msg)
         out["handover_ms"].append((cpu() - t) * 1e3)
-        robots = host.robots
+        robots = runtime.robots
         frames = [(robots[d], Frame(table[k].src, "PROBE", [0.0, 0.0, 0.0], 1, 0.0))
                   for d, k in zip(dst[order].tolist(), refs[order].tolist(), strict=True)]
         t = cpu()
@@ -178,8 +189,10 @@ def floor(n_host: int, per_robot: float, repeats: int = 5) -> dict:
         msg = Inputs.from_rows(1, 0.0, [RobotIn(i, [float(i), 0.0, 0.0], ([], []), []) for i in range(n_host)],
                                epoch=now)
         t = cpu()
-        host._rt_tick(msg, 0, to_end=True)
+        runtime.take_inputs(msg)
         out["step_ms"].append((cpu() - t) * 1e3)
+        runtime.stop()
+        await runtime.close()
 
     for _ in range(repeats):
         asyncio.run(once())

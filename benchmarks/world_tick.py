@@ -21,8 +21,9 @@ deliveries, inputs, the trace record and hash), from wrappers installed in the w
 ``inproc``: the same lockstep beacon with the world and K robot hosts in one process and no Zenoh: the world's
 downlinks go straight to its hosts' steps and their uplinks back (the bytes the real run sends, sealed and
 decoded the same way), so CPU time splits exactly between the world's Python work (its tick, encoding the
-inputs, decoding the uplinks) and the hosts' (decoding, stepping, encoding). Each run is a fresh process on
-this tree or the baseline's, interleaved; the trace hash must be the same as the real run's. ``--profile``
+inputs, decoding the uplinks) and the hosts' (decoding, stepping with ``RobotRuntime.step``, encoding). Each
+run is a fresh process on this tree or the baseline's (which must have ``swarmactors.robot``), interleaved;
+the trace hash must be the same as the real run's. ``--profile``
 prints a cProfile of this tree's world part.
 
 Nothing is asserted: numbers go to stdout and the JSON file, and by hand to docs/benchmarks.md.
@@ -80,12 +81,12 @@ if __name__ == "__main__":
 
 INPROC = r"""
 import asyncio, cProfile, json, pstats, sys, time
-from swarmactors.host import RobotHost
 from swarmactors.hosting import quiet_gc
+from swarmactors.robot import RobotRuntime
 from swarmactors.scenario import resolve_scenario, world_spec
 from swarmactors.trace import TraceWriter
 from transport import Keys, seal, unseal
-from transport.messages import Downlink, JoinReply, JoinRequest, decode, encode
+from transport.messages import Downlink, JoinReply, JoinRequest, Uplink, decode, encode
 from world import World
 
 class Link:
@@ -118,16 +119,16 @@ def main():
         host = hosts.get(key.rsplit("/", 1)[-1])
         if host is not None:
             loop.call_soon(lambda: asyncio.ensure_future(step(host, data)))
-    async def step(host, data):
+    async def step(host, data):  # what a host session does with a downlink, around its runtime's step
+        name, key, runtime = host
         t = time.process_time()
-        msg = decode(unseal(host.key, data, what="downlink"), Downlink, what="downlink")
+        msg = decode(unseal(key, data, what="downlink"), Downlink, what="downlink")
         if type(msg).__name__ != "Inputs":
             return
-        host.tick = msg.tick
-        out = await host._step_lockstep(msg)
-        up = host._uplink(host.tick, out)
+        out = await runtime.step(msg)
+        up = seal(key, encode(Uplink(name, msg.tick, out)))
         spent["host"] += time.process_time() - t
-        w._on_up_put(keys.up(host.name), up)
+        w._on_up_put(keys.up(name), up)
     trace = TraceWriter(None, {}, mode="off")
     w = World(world_spec(resolve_scenario(raw, "<bench>")), Link(on_down), keys, sinks=[trace])
     per = -(-n // k)
@@ -135,12 +136,10 @@ def main():
         q = Query(keys.join, encode(JoinRequest(min(per, n - i * per))))
         w._on_join(q)
         j = decode(q.replies[0], JoinReply, what="join reply")
-        h = RobotHost(Link(), keys)
-        h.name, h.key, h.run_info = j.host, j.key, j.run
-        for d in j.robots:
-            h._adopt(d)
-        hosts[h.name] = h
-        w._on_step_query(Query(keys.up(h.name), h._uplink(-1)))
+        runtime = RobotRuntime(j.run)
+        runtime.adopt(j.robots)
+        hosts[j.host] = (j.host, j.key, runtime)
+        w._on_step_query(Query(keys.up(j.host), seal(j.key, encode(Uplink(j.host, -1)))))
     w.started = True
     prof = cProfile.Profile() if profile else None
     with quiet_gc():  # as the world's and the hosts' processes do

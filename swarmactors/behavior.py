@@ -25,12 +25,13 @@ from __future__ import annotations
 import inspect
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any, ClassVar
 
 import msgspec
 import numpy as np
 
+from transport.codec import pack
 from transport.messages import FrameOut
 
 
@@ -104,10 +105,23 @@ class Behavior:
 
 
 class Context:
-    """What a behaviour may see and do. One per robot."""
+    """What a behaviour may see and do. One per robot.
+
+    Besides the behaviour, only the robot runtime (``swarmactors.robot``) touches a context: it builds it with
+    the robot's fixed inputs (the keyword arguments) and uses the methods under "the runtime's side" below,
+    whose names start with an underscore so that behaviours leave them alone: ``_set_inputs`` (a tick's pose,
+    objects, rays and time), ``_set_time`` (the time alone), ``_due_timers`` (lockstep timers),
+    ``_schedule_with`` (realtime timers), ``_has_outputs`` and ``_take_outputs`` (what the robot did).
+    """
 
     def __init__(self, robot_id: int, rng: np.random.Generator, clock: str, *, dt: float = 1.0,
-                 radio_range: float = 1.0, sensing_range: float = 1.0, kind: str = "ground"):
+                 radio_range: float = 1.0, sensing_range: float = 1.0, kind: str = "ground",
+                 pose: Any = None, known_map: Any = None, own_clock: Any = None, sensing_frame: str = "global",
+                 encode: Callable[[Any], bytes] = pack):
+        """``known_map``: a ``KnownMap`` for a robot given the map; ``own_clock``: a ``RobotClock`` when skewed.
+
+        ``pose`` defaults to the origin (x, y, heading); ``encode`` packs a frame body (msgpack).
+        """
         self.id = robot_id
         self.rng = rng
         self._clock = clock
@@ -115,11 +129,12 @@ class Context:
         self._range = float(radio_range)
         self._sensing = float(sensing_range)
         self._kind = kind
-        self._map = None  # swarmactors.knownmap.KnownMap, for a robot given the map
+        self._map = known_map
         self._rays: tuple[float, ...] | None = None
         self._now: float = 0
         self._tick = 0
-        self.pose = np.zeros(3)  # x, y, heading (x, y, z, heading in 3-D); local sensing: odometry from its start
+        # x, y, heading (x, y, z, heading in 3-D); local sensing: odometry from its start
+        self.pose = np.zeros(3) if pose is None else np.array(pose, dtype=float)
         self.objects: dict[str, list[float]] = {}  # the objects this robot knows (its own dict)
         self._outbox: list[FrameOut] = []
         self._velocity: list[float] | None = None
@@ -129,9 +144,9 @@ class Context:
         self._on_timer: Callable[[float, Callable[[], Any]], None] | None = None  # realtime: schedule at once
         self._seq = 0
         self.logs: list[str] = []
-        self._encode: Callable[[Any], bytes] | None = None
-        self._own_clock = None  # swarmactors.robot_clock.RobotClock when the robot's clock is skewed
-        self._sensing_frame = "global"
+        self._encode = encode
+        self._own_clock = own_clock
+        self._sensing_frame = sensing_frame
 
     @property
     def now(self) -> float:
@@ -187,11 +202,6 @@ class Context:
         """``"global"`` or ``"local"`` (its group's ``sensing_frame``): what ``pose`` and ``sensed`` mean."""
         return self._sensing_frame
 
-    def _set_time(self, tick: int, now: float) -> None:
-        """The host advances the robot's time (the only writer), on the robot's own clock if skewed."""
-        self._tick = tick
-        self._now = now if self._own_clock is None else self._own_clock.local(now)
-
     @property
     def position(self) -> np.ndarray:
         return self.pose[:-1]
@@ -233,6 +243,49 @@ class Context:
         """A log line kept with the robot's report (the last 200)."""
         self.logs.append(f"[{self.tick}] {message}")
         del self.logs[:-200]
+
+    # -- the runtime's side (swarmactors.robot; never called by a behaviour) --------------------------------
+    def _set_inputs(self, tick: int, now: float, pose: Any, objects: dict[str, list[float]],
+                    known: list[str] | None, rays: list[float] | None) -> None:
+        """A tick's inputs: time, pose (copied), the objects it knows (``known``: their names; None: all), rays."""
+        self._rays = None if rays is None else tuple(rays)
+        self.pose = pose.copy() if type(pose) is np.ndarray else np.array(pose, dtype=float)  # its own array
+        self._tick = tick
+        self._now = now if self._own_clock is None else self._own_clock.local(now)
+        # its own dict, with the objects it knows (an empty one left empty is kept)
+        if objects:
+            self.objects = {name: list(pos) for name, pos in objects.items() if known is None or name in known}
+        elif self.objects:
+            self.objects = {}
+
+    def _set_time(self, tick: int, now: float) -> None:
+        """Advance the robot's time (the runtime is the only writer), on the robot's own clock if skewed."""
+        self._tick = tick
+        self._now = now if self._own_clock is None else self._own_clock.local(now)
+
+    def _due_timers(self) -> Sequence[Callable[[], Any]]:
+        """Lockstep: remove and return the timers due at ``now``, by due time then order of ``after`` calls."""
+        timers = self._timers
+        if not timers:
+            return ()
+        now = self._now
+        due = sorted(t for t in timers if t[0] <= now)
+        self._timers = [t for t in timers if t[0] > now]
+        return [fn for _, _, fn in due]
+
+    def _schedule_with(self, schedule: Callable[[float, Callable[[], Any]], None]) -> None:
+        """Realtime: ``after`` hands each timer to ``schedule(true delay in seconds, fn)`` at once."""
+        self._on_timer = schedule
+
+    def _has_outputs(self) -> bool:
+        """Whether the robot queued frames, commanded a velocity or holds status fields."""
+        return bool(self._outbox) or self._velocity is not None or bool(self._status)
+
+    def _take_outputs(self) -> tuple[list[FrameOut], list[float] | None, dict[str, Any]]:
+        """The frames queued and the velocity commanded since the last call (both reset), and the status fields."""
+        frames, self._outbox = self._outbox, []
+        vel, self._velocity = self._velocity, None
+        return frames, vel, self._status
 
 
 def is_int(v: Any) -> bool:

@@ -136,7 +136,7 @@ def id_ranges(ids: list[int]) -> str:
 
 
 def _frames_sent(host: RobotHost) -> int:
-    return sum(r.ctx._seq for r in host.robots.values())  # a robot's frame sequence number counts its frames
+    return sum(r.frames_sent for r in host.robots.values())
 
 
 async def _report_progress(host: RobotHost, say: Callable[[str], None]) -> None:

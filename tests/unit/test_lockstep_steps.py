@@ -1,7 +1,7 @@
 """The lockstep step path below Zenoh (issue 28): steps are puts, inputs are puts on ``down/{host}``.
 
-A World is driven by hand through a fake link that records what it publishes; a RobotHost's downlink filter
-and its hook order are checked without a session. Rules:
+A World is driven by hand through a fake link that records what it publishes; a host session's downlink filter
+is checked against a fake link that plays its world, and a robot's hook order without a session. Rules:
 
 * a registration (tick -1) is a query answered at once; a step is a put, held until the barrier;
 * a step sent as a query, a stale or future step, and a second step while one is held are refused and counted
@@ -21,11 +21,13 @@ import types
 import numpy as np
 
 from swarmactors.behavior import Behavior
-from swarmactors.host import Robot, RobotHost, run_calls
+from swarmactors.robot import HostSession as RobotHost
+from swarmactors.robot import Robot, run_calls
 from swarmactors.scenario import resolve_scenario, world_spec
 from tests_support import FakeLink, FakeQuery
 from transport import Keys, seal, unseal
 from transport.messages import (
+    PROTOCOL_VERSION,
     Ack,
     Downlink,
     Inputs,
@@ -120,25 +122,61 @@ def test_a_host_lost_to_the_watchdog_is_told_gone_and_so_is_its_late_step(monkey
     assert _down(j, data).gone and w.counters.dropped["malformed"] == 0
 
 
-def _host() -> RobotHost:
-    host = RobotHost(FakeLink(), Keys("s"))
-    host.name, host.key = "h0", b"k" * 32
-    host.run_info = RunInfo("lockstep", 1.0, 0, 10, 10.0, 0)
-    host._inbox = asyncio.Queue()
-    return host
+class _World:
+    """Enough of a Link for one HostSession below Zenoh, playing its world.
+
+    It answers the join and the registration, keeps the host's ``down/h0`` handler, and records the ticks of
+    the steps the host puts on ``up/h0``.
+    """
+
+    def __init__(self):
+        self.key = b"k" * 32
+        self.down = None
+        self.subscribed = asyncio.Event()
+        self.steps: list[int] = []
+
+    async def query(self, key, data, **_options):
+        if key.endswith("/world/join"):
+            return encode(JoinReply("h0", self.key, PROTOCOL_VERSION, [], RunInfo("lockstep", 1.0, 0, 10, 10.0, 0)))
+        return seal(self.key, encode(Ack(0.0)))  # the registration, the final reports
+
+    def subscribe(self, key, handler):
+        self.down = handler
+        self.subscribed.set()
+
+    def publish(self, key, data, *, reliable=True):
+        self.steps.append(decode(unseal(self.key, data, what="uplink"), Uplink, what="uplink").tick)
+
+    def declare_token(self, key):
+        pass
+
+    def watch_liveliness(self, key, handler):
+        pass
+
+    def send(self, msg, key: bytes | None = None) -> None:
+        self.down("down/h0", seal(key or self.key, encode(msg)))
 
 
 def test_a_host_drops_stale_inputs_and_old_stops():
     async def main():
-        host = _host()
-        host.tick = 4
-        for msg in (Inputs(4), Inputs(3), Stop(3), Ack(0.0)):
-            host._on_down("down/h0", seal(host.key, encode(msg)))
-        host._on_down("down/h0", seal(b"x" * 32, encode(Inputs(5))))  # not sealed with this host's key
-        assert host._inbox.empty() and host.bad_downlinks == 4
-        host._on_down("down/h0", seal(host.key, encode(Inputs(5))))
-        host._on_down("down/h0", seal(host.key, encode(Stop(4, gone=True))))
-        assert [type(host._inbox.get_nowait()).__name__ for _ in range(2)] == ["Inputs", "Stop"]
+        world = _World()
+        host = RobotHost(world, Keys("s"), run_secret=b"")
+        run = asyncio.ensure_future(host.run())
+        await world.subscribed.wait()
+        world.send(Inputs(4))
+        for _ in range(3):
+            await asyncio.sleep(0)
+        assert world.steps == [4] and host.tick == 4
+        for msg in (Inputs(4), Inputs(3), Stop(3), Ack(0.0)):  # replays; an Ack is no step's business
+            world.send(msg)
+        world.send(Inputs(5), key=b"x" * 32)  # not sealed with this host's key
+        for _ in range(3):
+            await asyncio.sleep(0)
+        assert world.steps == [4] and host.bad_downlinks == 4
+        world.send(Inputs(5))
+        world.send(Stop(5, gone=True))
+        await asyncio.wait_for(run, 5.0)
+        assert world.steps == [4, 5] and host.gone
 
     asyncio.run(main())
 

@@ -13,6 +13,7 @@ Rules tested:
 
 from __future__ import annotations
 
+import asyncio
 import math
 import sys
 import types
@@ -21,9 +22,9 @@ import numpy as np
 import pytest
 
 from swarmactors.behavior import Behavior, Context
-from swarmactors.host import Robot, SensedView
+from swarmactors.robot import Robot, RobotRuntime, SensedView
 from swarmactors.robot_clock import RobotClock, robot_clock
-from transport.messages import RobotDescr, RunInfo
+from transport.messages import Inputs, RobotDescr, RobotIn, RunInfo
 
 
 def test_local_time_under_offset_and_drift():
@@ -36,26 +37,38 @@ def test_local_time_under_offset_and_drift():
     assert robot_clock(0.0, 0.0, "lockstep", 1.0) is None
 
 
+class TimerAt5(Behavior):
+    """At its start, a timer 5 clock units later; records the world's tick at which it fires."""
+
+    def __init__(self):
+        self.fired = []
+        self.now = []
+
+    def on_start(self, ctx):
+        ctx.after(5.0, lambda: self.fired.append(ctx.tick))
+
+    def on_tick(self, ctx, sensed):
+        self.now.append(ctx.now)
+
+
 def test_ctx_now_and_lockstep_timers_run_on_the_robots_clock():
-    ctx = Context(0, np.random.default_rng(0), "lockstep")
-    ctx._own_clock = RobotClock(2.0, 1e5, "lockstep", 1.0)  # local = 1.1 t + 2
-    fired = []
-    ctx._set_time(0, 0)
-    assert (ctx.tick, ctx.now) == (0, pytest.approx(2.0))
-    ctx.after(5.0, lambda: fired.append(ctx.tick))  # due at local 7.0: true tick 5/1.1 = 4.55 -> tick 5
-    robot = types.SimpleNamespace(ctx=ctx)
-    for tick in range(1, 8):
-        ctx._set_time(tick, tick)
-        for fn in Robot.due_timers(robot):
-            fn()
-    assert fired == [5]
+    mod = types.ModuleType("clock_timer_mod")
+    mod.TimerAt5 = TimerAt5
+    sys.modules["clock_timer_mod"] = mod
+    runtime = RobotRuntime(RunInfo("lockstep", 1.0, 0, 10, 10.0, 0), allow={"clock_timer_mod"})
+    runtime.adopt([RobotDescr(0, [0.0, 0.0, 0.0], [{"use": "clock_timer_mod:TimerAt5"}], "ground", 1.0, 1.0, 1.0,
+                              clock_offset=2.0, clock_drift=1e5)])  # local = 1.1 t + 2
+    for tick in range(8):  # due at local 7.0: true tick 5/1.1 = 4.55 -> tick 5
+        asyncio.run(runtime.step(Inputs.from_rows(tick, float(tick), [RobotIn(0, [0.0, 0.0, 0.0], ([], []), [])])))
+    b = runtime.robots[0].behaviors[0]
+    assert b.fired == [5] and runtime.robots[0].ctx.tick == 7
+    assert b.now == [pytest.approx(1.1 * t + 2.0) for t in range(8)]
 
 
 def test_realtime_delays_are_turned_into_true_seconds():
-    ctx = Context(0, np.random.default_rng(0), "realtime")
-    ctx._own_clock = RobotClock(0.0, -5e4, "realtime", 0.1)
+    ctx = Context(0, np.random.default_rng(0), "realtime", own_clock=RobotClock(0.0, -5e4, "realtime", 0.1))
     scheduled = []
-    ctx._on_timer = lambda delay, fn: scheduled.append(delay)
+    ctx._schedule_with(lambda delay, fn: scheduled.append(delay))
     ctx.after(0.95, print)
     assert scheduled == [pytest.approx(1.0)]
 
@@ -77,12 +90,19 @@ def _robot(use: str, **descr) -> Robot:
                  run, allow={"clock_mod"})
 
 
+def _now_at_tick_3(robot: Robot) -> float:
+    runtime = RobotRuntime(RunInfo("lockstep", 0.5, 0, 10, 10.0, 0))
+    runtime.robots[robot.id] = robot
+    asyncio.run(runtime.step(Inputs.from_rows(3, 3.0, [RobotIn(robot.id, [0.0, 0.0, 0.0], ([], []), [])])))
+    return robot.ctx.now
+
+
 def test_the_host_builds_the_clock_and_checks_the_frame():
     robot = _robot("Both", sensing_frame="local", clock_offset=1.0, clock_drift=100.0)
     assert robot.error is None and robot.local and robot.ctx.sensing_frame == "local"
-    robot.ctx._set_time(3, 3)
-    assert robot.ctx.now == pytest.approx(3 * 1.0001 + 2.0)  # 1 s = 2 ticks of 0.5 s
-    assert _robot("GlobalOnly").error is None and _robot("GlobalOnly").ctx._own_clock is None
+    assert _now_at_tick_3(robot) == pytest.approx(3 * 1.0001 + 2.0)  # 1 s = 2 ticks of 0.5 s
+    plain = _robot("GlobalOnly")
+    assert plain.error is None and _now_at_tick_3(plain) == 3  # no offset, no drift: the world's time
     refused = _robot("GlobalOnly", sensing_frame="local")
     assert refused.error and "clock_mod:GlobalOnly" in refused.error and "local" in refused.error
 
