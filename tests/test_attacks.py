@@ -9,8 +9,12 @@ undisturbed run.
 from __future__ import annotations
 
 import asyncio
+import json
 import math
+import re
+import signal
 import stat
+import subprocess
 import sys
 import threading
 import time
@@ -26,6 +30,9 @@ from swarmactors.launcher import new_run_id, private_endpoints, run_world
 from swarmactors.launcher import run as launcher_run
 from swarmactors.plugins import BEHAVIORS, RefusedBehavior, allowed, available, resolve_behavior
 from swarmactors.scenario import resolve_scenario, world_spec
+from swarmactors.scene import Scene
+from swarmactors.trace import TraceHasher
+from swarmactors.viewer import Source, ViewerServer
 from test_bad_input import FLOOD_RAW, PAUSE_AT, FakeLink, FakeQuery, WireRun, _get, _HostThread
 from transport import Endpoints, Keys, make_config, pack, seal, unpack
 from transport.messages import (
@@ -447,3 +454,127 @@ def test_run_with_host_processes_over_the_unix_socket(tmp_path):
     assert {r["host"] for r in result.robots.values()} == {"h0", "h1"}
     assert result["trace_hash"] == tcp["trace_hash"]
     assert all(r["beacon"]["heard"] > 0 for r in result.robots.values())
+
+
+# ------------------------------------------------------------------ 9. the viewer's HTTP API
+def write_small_trace(path: Path, records: list[dict] | None = None, compress: bool = False) -> Path:
+    """A valid trace by hand: header, ``records`` (default: three ticks of two robots) and a footer with the hash."""
+    records = records if records is not None else [{"t": t, "pos": [[0, 0.0, 0.0], [1, 1.0, float(t)]]}
+                                                   for t in range(3)]
+    hasher = TraceHasher()
+    for rec in records:
+        hasher.update(rec)
+    objs = [{"trace": "swarmactors", "version": 2, "run_id": "x", "clock": "lockstep", "seed": 1, "scenario": {}},
+            *records, {"end": True, "ticks": len(records), "trace_hash": hasher.hexdigest()}]
+    data = b"".join(pack(o) for o in objs)
+    if compress:
+        import zstandard
+
+        data = zstandard.ZstdCompressor().compress(data)
+    path.write_bytes(data)
+    return path
+
+
+class _Recorder(Source):
+    """A viewer source that obeys every command and remembers it: what an attacker's request reached."""
+
+    def __init__(self):
+        self.scene = Scene(mode="live")
+        self.obeyed: list[dict] = []
+
+    async def command(self, msg: dict) -> dict:
+        self.obeyed.append(msg)
+        return {"ok": True}
+
+
+async def _http(port: int, method: str, path: str, headers: dict, body: bytes = b"") -> tuple[int, str]:
+    """One raw HTTP/1.1 request, as another local process would send it (no browser, headers as given)."""
+    reader, writer = await asyncio.open_connection("127.0.0.1", port)
+    lines = [f"{method} {path} HTTP/1.1", *(f"{k}: {v}" for k, v in headers.items()),
+             f"Content-Length: {len(body)}", "Connection: close", "", ""]
+    writer.write("\r\n".join(lines).encode() + body)
+    await writer.drain()
+    answer = (await asyncio.wait_for(reader.read(), 10)).decode()
+    writer.close()
+    status = int(answer.split(" ", 2)[1])
+    return status, answer.split("\r\n\r\n", 1)[1]
+
+
+async def test_viewer_commands_need_the_token_and_a_local_host_name():
+    """Another local process (no Origin) and a DNS-rebound page (Host: evil.example) cannot command the viewer."""
+    source = _Recorder()
+    server = ViewerServer("127.0.0.1", 0, source)
+    url = await server.start()
+    port = int(server.base.rsplit(":", 1)[1].rstrip("/"))
+    assert url == f"{server.base}?token={server.token}" and len(server.token) >= 32
+    here = {"Host": f"127.0.0.1:{port}", "Content-Type": "application/json"}
+    stop = json.dumps({"cmd": "stop", "args": True}).encode()
+    try:
+        for cmd in ({"cmd": "stop", "args": True}, {"cmd": "loss", "args": 0.9}, {"cmd": "kill", "id": 1}):
+            status, body = await _http(port, "POST", "/api/command", here, json.dumps(cmd).encode())
+            assert status == 403 and "token" in body
+        wrong = server.token[:-1] + ("A" if server.token[-1] != "A" else "B")  # same length, one character off
+        status, _ = await _http(port, "POST", "/api/command", {**here, "X-Swarmactors-Token": wrong}, stop)
+        assert status == 403
+        status, _ = await _http(port, "POST", f"/api/command?token={wrong}", here, stop)
+        assert status == 403
+        # DNS rebinding: the browser sends the attacker's name as Host and as Origin, and cannot know the token
+        evil = {"Host": f"evil.example:{port}", "Origin": f"http://evil.example:{port}",
+                "Content-Type": "application/json"}
+        status, body = await _http(port, "POST", "/api/command", evil, stop)
+        assert status == 403 and "evil.example" in body
+        status, _ = await _http(port, "POST", "/api/command", {**evil, "X-Swarmactors-Token": server.token}, stop)
+        assert status == 403  # even with the token: the Host is checked first
+        status, _ = await _http(port, "GET", "/api/frame", {**evil, "X-Swarmactors-Token": server.token})
+        assert status == 403  # and reading the run is refused too
+        # read-only data needs the token as well; the page itself (no run data) does not
+        for path in ("/api/frame", "/api/space", "/api/robot/0", "/api/events.toml", "/ws"):
+            assert (await _http(port, "GET", path, here))[0] == 403, path
+        assert (await _http(port, "GET", "/", here))[0] == 200
+        assert (await _http(port, "GET", "/static/viewer.js", {"Host": f"localhost:{port}"}))[0] == 200
+        assert source.obeyed == []
+        # the owner, with the printed token (header, or ?token= as the page's WebSocket sends it)
+        status, body = await _http(port, "POST", "/api/command", {**here, "X-Swarmactors-Token": server.token},
+                                   stop)
+        assert status == 200 and json.loads(body) == {"ok": True}
+        status, _ = await _http(port, "GET", f"/api/frame?token={server.token}", {"Host": f"[::1]:{port}"})
+        assert status == 200
+        assert source.obeyed == [{"cmd": "stop", "args": True}]
+    finally:
+        await server.close()
+
+
+@pytest.mark.parametrize("header", ["evil.example", "localhost.evil.example:80", "127.0.0.1:x", "[::1", "", "::1"])
+def test_viewer_host_allowlist_refuses_other_names(header):
+    server = ViewerServer("127.0.0.1", 0)
+    assert not server.host_allowed(header)
+
+
+@pytest.mark.parametrize("header", ["127.0.0.1:8050", "localhost:9000", "[::1]:8050", "LOCALHOST", "10.0.0.5:8050"])
+def test_viewer_host_allowlist_admits_this_machine(header):
+    server = ViewerServer("127.0.0.1", 0)
+    assert server.host_allowed(header)
+
+
+def test_replay_viewer_prints_its_token_and_refuses_commands_without_it(tmp_path):
+    """``swarmactors replay TRACE --view`` in its own process: the address it prints carries the token."""
+    trace = tmp_path / "trace.msgpack"
+    write_small_trace(trace)
+    log = tmp_path / "view.log"
+    proc = subprocess.Popen([sys.executable, "-m", "swarmactors", "replay", str(trace), "--port", "0"],
+                            stdout=subprocess.DEVNULL, stderr=open(log, "w"))
+    try:
+        deadline = time.monotonic() + 30
+        while not (m := re.search(r"viewer: (http://127\.0\.0\.1:(\d+)/)\?token=([\w-]+)", log.read_text())):
+            assert proc.poll() is None and time.monotonic() < deadline, log.read_text()
+            time.sleep(0.05)
+        base, port, token = m.group(1), int(m.group(2)), m.group(3)
+        seek = json.dumps({"cmd": "seek", "t": 1}).encode()
+        here = {"Host": f"127.0.0.1:{port}", "Content-Type": "application/json"}
+        status, _ = asyncio.run(_http(port, "POST", "/api/command", here, seek))
+        assert status == 403
+        status, body = asyncio.run(_http(port, "POST", "/api/command", {**here, "X-Swarmactors-Token": token}, seek))
+        assert status == 200 and json.loads(body) == {"ok": True, "t": 1}, base
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=30)
