@@ -9,8 +9,10 @@ undisturbed run.
 from __future__ import annotations
 
 import asyncio
+import functools
 import json
 import math
+import os
 import re
 import signal
 import stat
@@ -578,3 +580,129 @@ def test_replay_viewer_prints_its_token_and_refuses_commands_without_it(tmp_path
     finally:
         proc.send_signal(signal.SIGINT)
         proc.wait(timeout=30)
+
+
+# ------------------------------------------------------------------ 10. trace bombs
+_PEAK_RSS = """import resource, subprocess, sys, time
+start = time.monotonic()
+p = subprocess.run(sys.argv[1:], capture_output=True, text=True, timeout=120)
+print(p.returncode, time.monotonic() - start, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024)
+print(p.stderr, end="")
+"""
+
+
+def _measured(args: list[str], cwd: Path) -> tuple[int, float, int, str]:
+    """Run ``swarmactors ARGS`` under a fresh parent: (exit code, seconds, peak resident bytes, stderr)."""
+    out = subprocess.run([sys.executable, "-c", _PEAK_RSS, sys.executable, "-m", "swarmactors", *args],
+                         capture_output=True, text=True, timeout=180, cwd=cwd).stdout
+    first, _, stderr = out.partition("\n")
+    code, seconds, rss = first.split()
+    return int(code), float(seconds), int(rss), stderr
+
+
+@functools.cache
+def _zero_frame(n: int) -> bytes:
+    import zstandard
+
+    return zstandard.ZstdCompressor(level=19).compress(bytes(n))
+
+
+def _zstd_frames(data_before: bytes, zeros: int) -> bytes:
+    """``data_before`` then ``zeros`` NUL bytes, as concatenated zstd frames (64 MiB of zeros is ~2 kB)."""
+    import zstandard
+
+    whole, rest = divmod(zeros, 64 << 20)
+    return (zstandard.ZstdCompressor().compress(data_before) + _zero_frame(64 << 20) * whole
+            + (_zero_frame(rest) if rest else b""))
+
+
+@pytest.fixture(scope="module")
+def trace_bomb(tmp_path_factory) -> Path:
+    """A ~100 kB zstd trace: a header, then three tick records of 1 GiB each (a status string of NUL bytes)."""
+    path = tmp_path_factory.mktemp("bomb") / "trace.msgpack"
+    head = pack({"trace": "swarmactors", "version": 2, "run_id": "x", "clock": "lockstep", "seed": 1,
+                 "scenario": {}})
+    parts = [b""]
+    for t in range(3):
+        prefix = pack({"t": t, "status": {0: {"s": "x"}}})[:-2]  # the map up to the string's value
+        parts.append(_zstd_frames((head if t == 0 else b"") + prefix + b"\xdb" + (1 << 30).to_bytes(4, "big"),
+                                  1 << 30))
+    path.write_bytes(b"".join(parts))
+    assert path.stat().st_size < 200_000
+    return path
+
+
+@pytest.mark.parametrize("command", ["events", "view", "export"])
+def test_trace_bomb_is_refused_in_seconds_without_the_memory(trace_bomb, tmp_path, command):
+    """``replay --events``, ``replay`` (the viewer) and ``export`` on 3 GiB in 100 kB: exit 2, the bound named."""
+    args = {"events": ["replay", str(trace_bomb), "--events"], "view": ["replay", str(trace_bomb), "--port", "0"],
+            "export": ["export", str(trace_bomb), "--out", str(tmp_path)]}[command]
+    code, seconds, rss, stderr = _measured(args, tmp_path)
+    assert code == 2, stderr
+    assert str(trace_bomb) in stderr and "32 MiB, the bound on one record" in stderr, stderr
+    assert len(stderr.strip().splitlines()) == 1, stderr
+    assert seconds < 20, seconds
+    assert rss < 400 << 20, rss / 2**20  # the bomb's records are never built
+    assert not list(tmp_path.glob("*.csv"))
+
+
+def test_trace_record_of_tiny_containers_is_refused_by_count(tmp_path):
+    """30 MiB of empty maps fits the byte bound but would take ~2.4 GB as dicts: refused by the container bound."""
+    from swarmactors.trace import MAX_RECORD_CONTAINERS, TraceError, iter_trace
+
+    n = 30 << 20
+    head = pack({"trace": "swarmactors", "version": 2, "run_id": "x", "clock": "lockstep", "seed": 1})
+    rec = pack({"t": 0, "status": {0: {"s": "x"}}})[:-2] + b"\xdd" + n.to_bytes(4, "big") + b"\x80" * n
+    path = tmp_path / "trace.msgpack"
+    path.write_bytes(head + rec)
+    started = time.monotonic()
+    with pytest.raises(TraceError, match=f"{path}: the record at byte offset {len(head)} holds more than "
+                                         f"{MAX_RECORD_CONTAINERS:,} lists and maps"):
+        list(iter_trace(path))
+    assert time.monotonic() - started < 10
+
+
+def test_zstd_trace_beyond_the_decompression_ratio_is_refused(tmp_path):
+    """Valid 8 MiB records, each ~300 bytes compressed: refused once the stream passes the ratio bound."""
+    from swarmactors.replay import Replay
+    from swarmactors.trace import MAX_RATIO, RATIO_FLOOR, TraceError, iter_trace
+
+    head = pack({"trace": "swarmactors", "version": 2, "run_id": "x", "clock": "lockstep", "seed": 1})
+    frames = []
+    for t in range(40):
+        prefix = pack({"t": t, "status": {0: {"s": "x"}}})[:-2] + b"\xdb" + (8 << 20).to_bytes(4, "big")
+        frames.append(_zstd_frames((head if t == 0 else b"") + prefix, 8 << 20))
+    path = tmp_path / "trace.msgpack"
+    path.write_bytes(b"".join(frames))
+    assert (RATIO_FLOOR + MAX_RATIO * path.stat().st_size) < 40 * (8 << 20)  # the stream is beyond the bound
+    started = time.monotonic()
+    with pytest.raises(TraceError, match=f"{path}: decompresses to more than {MAX_RATIO} times its size"):
+        list(iter_trace(path))
+    with pytest.raises(TraceError, match="decompression bomb"):
+        Replay(path)
+    assert time.monotonic() - started < 20
+
+
+@pytest.mark.parametrize("special", ["/dev/zero", "fifo"])
+def test_trace_that_is_not_a_regular_file_is_refused(tmp_path, special):
+    from swarmactors.replay import Replay
+    from swarmactors.trace import TraceError, iter_trace
+
+    path = Path(special)
+    if special == "fifo":
+        path = tmp_path / "trace.msgpack"
+        os.mkfifo(path)  # opening it for reading would wait for a writer
+    for read in (lambda: list(iter_trace(path)), lambda: Replay(path)):
+        with pytest.raises(TraceError, match=f"{path}: not a regular file"):
+            read()
+
+
+def test_a_real_zstd_trace_still_replays(tmp_path):
+    """The bounds leave ordinary traces alone: a compressed trace replays, its copy written while it is checked."""
+    from swarmactors.replay import Replay
+
+    path = write_small_trace(tmp_path / "trace.msgpack", compress=True)
+    replay = Replay(path)
+    assert replay.first == 0 and replay.last == 2 and replay.note is None
+    assert replay.scene_at(1).t == 1
+    replay.records.close()
