@@ -706,3 +706,93 @@ def test_a_real_zstd_trace_still_replays(tmp_path):
     assert replay.first == 0 and replay.last == 2 and replay.note is None
     assert replay.scene_at(1).t == 1
     replay.records.close()
+
+
+# ------------------------------------------------------------------ 11. map bombs
+_MAP_SCENARIO = """[run]
+name = "map-bomb"
+ticks = 3
+
+[world]
+map = {map}
+
+[[robots]]
+count = 2
+placement = "line"
+behaviors = [{{ use = "beacon" }}]
+"""
+
+
+def _map_scenario(folder: Path, map_value: str) -> Path:
+    path = folder / "scenario.toml"
+    path.write_text(_MAP_SCENARIO.format(map=map_value))
+    return path
+
+
+def _bad_run(args: list[str], capsys) -> tuple[int, str, float]:
+    from swarmactors.cli import main
+
+    started = time.monotonic()
+    code = main(args)
+    return code, capsys.readouterr().err, time.monotonic() - started
+
+
+@pytest.mark.parametrize("case", ["dev-zero", "fifo", "huge-maze", "huge-file-header", "too-many-bytes",
+                                  "map-symlink-loop"])
+def test_map_bomb_is_refused_in_seconds_naming_file_and_key(tmp_path, capsys, case):
+    """``run`` with a map that never ends, waits forever, or would not fit in memory: exit 2 within seconds."""
+    from swarmactors.maps import MAX_MAP_BYTES, MAX_MAP_CELLS
+
+    key, value, names = "world.map.file", None, None
+    if case == "dev-zero":
+        value, names = '"/dev/zero"', ["/dev/zero", "not a regular file"]
+    elif case == "fifo":
+        os.mkfifo(tmp_path / "fifo.map")
+        value, names = '"fifo.map"', ["fifo.map", "not a regular file"]
+    elif case == "huge-maze":
+        key, value = "world.map.maze", "{ maze = { cols = 100000, rows = 100000 } }"
+        names = ["300001 x 300001", f"{MAX_MAP_CELLS:,}"]
+    elif case == "huge-file-header":
+        (tmp_path / "big.map").write_text("type octile\nheight 100000\nwidth 100000\nmap\n........\n")
+        value, names = '"big.map"', ["big.map", "100000 x 100000", f"{MAX_MAP_CELLS:,}"]
+    elif case == "too-many-bytes":
+        with open(tmp_path / "long.map", "wb") as f:  # sparse: 17 MiB on paper, nothing on disk
+            f.truncate(MAX_MAP_BYTES + (1 << 20))
+        value, names = '"long.map"', ["long.map", f"{MAX_MAP_BYTES >> 20} MiB"]
+    else:
+        (tmp_path / "a.map").symlink_to(tmp_path / "b.map")
+        (tmp_path / "b.map").symlink_to(tmp_path / "a.map")
+        value, names = '"a.map"', ["a.map", "Too many levels of symbolic links"]
+    scenario = _map_scenario(tmp_path, value)
+    code, err, seconds = _bad_run(["run", str(scenario), "--out", str(tmp_path / "out"), "--quiet"], capsys)
+    assert code == 2, err
+    assert len(err.strip().splitlines()) == 1, err
+    assert f"{scenario}: {key}:" in err and all(n in err for n in names), err
+    assert seconds < 10, seconds
+    assert not (tmp_path / "out").exists()
+
+
+def test_scenario_that_is_a_symlink_loop_is_refused_naming_it(tmp_path, capsys):
+    (tmp_path / "a.toml").symlink_to(tmp_path / "b.toml")
+    (tmp_path / "b.toml").symlink_to(tmp_path / "a.toml")
+    code, err, _ = _bad_run(["run", str(tmp_path / "a.toml"), "--quiet"], capsys)
+    assert code == 2, err
+    assert err.startswith(f"error: {tmp_path / 'a.toml'}:") and "symbolic links" in err, err
+    assert "RuntimeError" not in err
+
+
+def test_map_limits_are_checked_before_reading_or_allocating():
+    """Pure rules of swarmactors/maps.py: cells before rows, and a maze's grid before it is built."""
+    from swarmactors.maps import MAX_MAP_CELLS, MapError, maze, parse_map
+
+    side = int(MAX_MAP_CELLS ** 0.5)
+    with pytest.raises(MapError, match="x 3 layers"):
+        parse_map(["type octile3d", f"height {side}", f"width {side}", "layers 3"], "m")
+    with pytest.raises(MapError, match=f"above the {MAX_MAP_CELLS:,}"):
+        maze(10**6, 10**6)
+    started = time.monotonic()
+    with pytest.raises(MapError, match="unknown map character"):  # rows are checked a row at a time, not per cell
+        parse_map(["type octile", "height 1000", "width 2000", "map", *(["." * 2000] * 999), "." * 1999 + "?"])
+    assert time.monotonic() - started < 5
+    rows = maze(20, 10, seed=1)
+    assert len(rows) == 10 * 3 + 1 and len(rows[0]) == 20 * 3 + 1  # below the bound: as before
