@@ -796,3 +796,88 @@ def test_map_limits_are_checked_before_reading_or_allocating():
     assert time.monotonic() - started < 5
     rows = maze(20, 10, seed=1)
     assert len(rows) == 10 * 3 + 1 and len(rows[0]) == 20 * 3 + 1  # below the bound: as before
+
+
+# ------------------------------------------------------------------ 12. swarmactors schedule
+_TASKS_HEAD = '[arena]\nx = [0.0, 100.0]\ny = [0.0, 100.0]\n[swarm]\nstart = [1.0, 1.0]\n[[robots]]\ncount = {count}\n'
+
+
+def _tasks_file(folder: Path, count: int = 20, chain: int = 1) -> Path:
+    """A TASKS.toml: ``count`` robots and ``chain`` tasks, each after the one before (a priority chain)."""
+    text = _TASKS_HEAD.format(count=count)
+    for i in range(chain):
+        text += (f'[[tasks]]\nid = "t{i}"\nposition = [{1 + (i * 7) % 98}.0, {1 + (i * 13) % 98}.0]\n'
+                 + (f'after = ["t{i - 1}"]\n' if i else ""))
+    path = folder / f"tasks-{count}-{chain}.toml"
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize(("count", "chain", "key", "bound"), [
+    (300_000_000, 1, "robots[0].count = 300000000",
+     "brings the swarm to 300,000,000 robots, more than the 1000 a schedule may have"),
+    (10**12, 1, "robots[0].count = 1000000000000",
+     "brings the swarm to 1,000,000,000,000 robots, more than the 1000 a schedule may have"),
+    (20, 3000, "tasks", "3,000 tasks, more than the 100 a schedule may have"),
+], ids=["count-3e8", "count-1e12", "3000-chained-tasks"])
+def test_schedule_instance_beyond_the_bounds_is_refused_before_the_model(tmp_path, capsys, count, chain, key, bound):
+    """The campaign's instances (23 GB, 8.6 GB, MemoryError): exit 2 at once, naming the key and the bound."""
+    path = _tasks_file(tmp_path, count, chain)
+    code, err, seconds = _bad_run(["schedule", str(path), "--time-limit", "20", "--out", str(tmp_path / "o")], capsys)
+    assert code == 2, err
+    assert err == f"error: {path}: {key}: {bound}\n", err
+    assert seconds < 5 and not (tmp_path / "o").exists()
+
+
+def test_schedule_model_too_large_for_its_tasks_and_slots_is_refused():
+    from protocols.secs.schedule import MAX_VARIABLES, Instance, InstanceError, Task, check_instance
+
+    caps = [frozenset({f"c{i}", f"d{j}"}) for i in range(30) for j in range(30)]  # 900 capability sets
+    tasks = tuple(Task(f"t{i}", (1.0, 1.0), capabilities=frozenset({f"c{i % 30}"})) for i in range(100))
+    inst = Instance(((0.0, 10.0), (0.0, 10.0)), (1.0, 1.0), tuple(caps), tasks)
+    with pytest.raises(InstanceError, match=f"more than {MAX_VARIABLES:,}: give fewer tasks"):
+        check_instance(inst)
+
+
+def test_schedule_time_limit_covers_building_the_model():
+    """A limit that runs out while the 100-task model is built: no solve, the message says what ran out."""
+    from protocols.secs import schedule as tsc
+    from swarmactors.schedule_cli import load_instance
+
+    inst, _ = load_instance(_chain_instance_file())
+    started = time.monotonic()
+    sched = tsc.solve_tctm(inst, 0.01)
+    assert sched.status == "no_solution" and not sched.solved
+    assert "ran out while the model was being built" in sched.message
+    assert time.monotonic() - started < 2
+
+
+@functools.cache
+def _chain_instance_file() -> Path:
+    import tempfile
+
+    return _tasks_file(Path(tempfile.mkdtemp(prefix="tsc-chain-")), 20, 100)
+
+
+def test_schedule_solver_that_overruns_its_limit_is_stopped(tmp_path, capsys):
+    """HiGHS's presolve of a 100-task priority chain ignores a 2 s limit for tens of seconds: stopped, exit 3."""
+    from protocols.secs.schedule import OVERRUN_S, OVERRUN_SHARE
+
+    limit = 2.0
+    code, err, seconds = _bad_run(["schedule", str(_chain_instance_file()), "--time-limit", str(limit), "--model",
+                                   "tctm", "--out", str(tmp_path / "o")], capsys)
+    assert code == 3, err
+    assert err.startswith(f"error: {_chain_instance_file()}: TCTM found no schedule within 2 s (no_solution: ")
+    assert "raise --time-limit" in err
+    assert seconds < limit + OVERRUN_S + OVERRUN_SHARE * limit + 3  # + loading the instance and the process
+
+
+def test_within_kills_what_overruns_and_reports_what_fails():
+    from protocols.secs.schedule import _within
+
+    started = time.monotonic()
+    assert _within(lambda: time.sleep(30), 0.3) is None
+    assert time.monotonic() - started < 3
+    assert _within(lambda: {"x": [1, 2]}, 5) == {"x": [1, 2]}
+    with pytest.raises(RuntimeError, match="ZeroDivisionError"):
+        _within(lambda: 1 / 0, 5)
