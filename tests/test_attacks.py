@@ -881,3 +881,21 @@ def test_within_kills_what_overruns_and_reports_what_fails():
     assert _within(lambda: {"x": [1, 2]}, 5) == {"x": [1, 2]}
     with pytest.raises(RuntimeError, match="ZeroDivisionError"):
         _within(lambda: 1 / 0, 5)
+
+
+# ------------------------------------------------------------------ 13. certificate files under any umask
+@pytest.mark.parametrize("umask", [0o000, 0o077], ids=["umask-000", "umask-077"])
+def test_cluster_certs_modes_do_not_depend_on_the_umask(tmp_path, capsys, umask):
+    """``cluster-certs`` (and ``world --secure``'s files): keys 0600, certificates 0644, a new directory 0700."""
+    from swarmactors.cli import main
+
+    folder = tmp_path / "deep" / "certs"
+    old = os.umask(umask)
+    try:
+        assert main(["cluster-certs", str(folder)]) == 0, capsys.readouterr().err
+    finally:
+        os.umask(old)
+    modes = {p.name: stat.S_IMODE(p.stat().st_mode) for p in folder.iterdir()}
+    assert modes == {"ca.pem": 0o644, "world.pem": 0o644, "cluster.pem": 0o644, "ca.key": 0o600, "world.key": 0o600,
+                     "cluster.key": 0o600, "users.txt": 0o600, "host.credential": 0o600}, modes
+    assert stat.S_IMODE(folder.stat().st_mode) == 0o700
