@@ -14,7 +14,7 @@ Each step runs in a fresh process and prints its peak resident set size (``ru_ma
   ``secs.connected`` (a radio graph at every tick, from the trace alone);
 * ``replay``: ``Replay`` opened (read and verified), the scene at the last tick and at the middle one (the
   viewer's slider), and an animation of 21 frames (``render``);
-* ``export``: csv and parquet (``swarmactors export``).
+* ``export``: csv, parquet and mcap (``swarmactors export``; mcap needs the ``[foxglove]`` extra).
 """
 
 from __future__ import annotations
@@ -40,6 +40,7 @@ STEPS = {
     "replay: GIF of 21 frames": "render(r.trace_path, tmp / 'a.gif', every=max(1, r['ticks'] // 20))",
     "export csv": "export(r, tmp / 'csv', 'csv')",
     "export parquet": "export(r, tmp / 'pq', 'parquet')",
+    "export mcap": "export(r, tmp / 'mcap', 'mcap')",
 }
 
 CHILD = """

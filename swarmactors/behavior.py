@@ -252,3 +252,24 @@ def check_params(cls: type, params: dict) -> str | None:
     except TypeError as exc:
         return str(exc)
     return None
+
+
+def params_problem(cls: type, params: dict, group: dict | None = None) -> str | None:
+    """Why ``cls(**params)`` must not be built: the parameters do not bind, or ``cls.validate`` refuses them.
+
+    The scenario loader passes the robot group as resolved; a robot host, which builds behaviours from specs
+    that came over the wire, passes none and skips a ``validate`` that needs one. Either way a spec is checked
+    before the class is called, so a parameter never reaches a constructor unvalidated.
+    """
+    problem = check_params(cls, params)
+    if problem:
+        return problem
+    validate = getattr(cls, "validate", None)
+    if validate is None:
+        return None
+    group_param = inspect.signature(validate).parameters.get("group")
+    if group_param is None:
+        return validate(params)
+    if group is None and group_param.default is inspect.Parameter.empty:
+        return None  # a rule tied to the group as resolved: checked where the group is known (the scenario)
+    return validate(params, group=group)

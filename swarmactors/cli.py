@@ -127,6 +127,7 @@ def build_parser() -> argparse.ArgumentParser:
     view.add_argument("--connect", default="tcp/127.0.0.1:7447", help="the world's Zenoh endpoint")
     view.add_argument("--run", dest="run_id", help="run id (default: the only run answering there)")
     _server_args(view, "--port", "--host")
+    _foxglove_args(view, "instead of the web page, serve the run to Foxglove on this WebSocket port")
 
     replay = sub.add_parser("replay", help="replay a trace: in the browser with a time slider, or as GIF/MP4")
     replay.add_argument("trace", type=Path, help="a trace.msgpack file (or a run's output directory)")
@@ -143,6 +144,8 @@ def build_parser() -> argparse.ArgumentParser:
     replay.add_argument("--no-verify", action="store_true",
                         help="replay a trace whose hashes do not match (a warning instead of exit 2)")
     _server_args(replay, "--port", "--host")
+    _foxglove_args(replay, "instead of the web page, play the trace to Foxglove on this WebSocket port")
+    replay.add_argument("--rate", type=float, default=10.0, help="--foxglove: ticks per second (default 10)")
 
     sweep = sub.add_parser("sweep", help="run a grid of parameters x trials over worker processes, to a CSV")
     scenario_args(sweep, "output directory (default out/<run.name>-sweep; a sweep resumes there)")
@@ -180,10 +183,18 @@ def _server_args(sp, port: str, host: str) -> None:
                     help="address the viewer listens on (default 127.0.0.1)")
 
 
+def _foxglove_args(sp, what: str) -> None:
+    sp.add_argument("--foxglove", nargs="?", type=int, const=8765, metavar="PORT",
+                    help=f"{what} (default 8765; 0 picks a free one; needs the [foxglove] extra)")
+    sp.add_argument("--foxglove-host", default="127.0.0.1", metavar="ADDR",
+                    help="address the Foxglove feed listens on (default 127.0.0.1)")
+
+
 def _view_args(sp) -> None:
     sp.add_argument("--view", action="store_true",
                     help="serve the live viewer (lockstep runs wait after tick 0 for ▶ in the page)")
     _server_args(sp, "--view-port", "--view-host")
+    _foxglove_args(sp, "serve the run live to Foxglove on this WebSocket port (docs/foxglove.md)")
     sp.add_argument("--no-plots", action="store_true", help="do not write the per-run charts beside result.json")
 
 
@@ -296,6 +307,10 @@ def _user_modules_importable(scenario: str | None) -> None:
 
 def _load(args) -> dict:
     scenario_file(args.scenario)
+    if args.command in ("run", "world") and args.foxglove is not None:
+        from swarmactors.see import check_foxglove
+
+        check_foxglove(args)  # the extra is installed, and --view is not asked too (exit 2)
     overrides = list(args.set)
     if args.seed is not None:
         overrides.append(f"run.seed={args.seed}")
@@ -330,10 +345,10 @@ def _run(args, sc: dict, err: Console) -> int:
 def _run_on(args, sc: dict, err: Console, out_dir: Path, endpoints: Endpoints, run_id: str, local: bool) -> int:
     progress = RunProgress(sc["run"]["ticks"], sc["run"]["name"], quiet=args.quiet)
     session = None
-    if args.view:
+    if args.view or args.foxglove is not None:
         from swarmactors.see import view_session
 
-        session = view_session(args)
+        session = view_session(args)  # the web page or the Foxglove feed
     with progress:
         if session is not None:
             result = session.run(sc, out_dir, endpoints, run_id, sc["run"]["processes"], local, progress.on_tick)

@@ -14,8 +14,9 @@ Two tables, both built from the trace (``trace.msgpack``) beside ``result.json``
   ``loss``, ``cut``, ``bandwidth``, ``dead``).
 
 Formats: ``csv`` (``poses.csv``, ``frames.csv``), ``json`` (``poses.json``, ``frames.json``: lists of
-records), ``parquet`` (needs pyarrow: ``pip install 'swarmactors[export]'``). Status values that are lists or
-maps are written as JSON text in csv and parquet.
+records), ``parquet`` (needs pyarrow: ``pip install 'swarmactors[export]'``); ``mcap`` writes instead one file,
+``run.mcap``, for Foxglove (``swarmactors.mcap_export``; needs ``pip install 'swarmactors[foxglove]'``).
+Status values that are lists or maps are written as JSON text in csv and parquet.
 
 The trace is streamed twice (once for the columns and their types, once for the rows) and the rows are
 written as they come, so an export's memory is O(N), not O(ticks) (parquet: one row group of
@@ -31,7 +32,7 @@ from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
-FORMATS = ("csv", "json", "parquet")
+FORMATS = ("csv", "json", "parquet", "mcap")
 TABLES = ("poses", "frames")
 FRAME_COLUMNS = ("tick", "src", "seq", "kind", "dst", "size", "outcome", "sent_tick")
 PARQUET_ROWS = 65_536  # rows per parquet row group: what an export holds at a time
@@ -223,6 +224,8 @@ def export(run, out_dir: str | Path, fmt: str = "csv") -> list[Path]:
     scenario, records = _source(run)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    if fmt == "mcap":
+        return [_export_mcap(run, records, out_dir)]
     paths = []
     for name in TABLES:
         columns, kinds, rows = _table(name, scenario, records)
@@ -243,6 +246,24 @@ def export(run, out_dir: str | Path, fmt: str = "csv") -> list[Path]:
             _write_parquet(path, columns, kinds, rows)
         paths.append(path)
     return paths
+
+
+def _export_mcap(run, records: Callable[[], Iterator[dict]], out_dir: Path) -> Path:
+    """``out_dir/run.mcap``, from the run's trace and the result.json beside it (``mcap_export``)."""
+    from swarmactors.foxglove_topics import FoxgloveMissing
+    from swarmactors.mcap_export import MCAP_NAME, result_beside, write_mcap
+    from swarmactors.result import Result
+    from swarmactors.trace import iter_trace
+
+    path = run.trace_path if isinstance(run, Result) else Path(run)
+    path = path / "trace.msgpack" if path.is_dir() else path
+    if path.name == "result.json":
+        path = Result.load(path).trace_path
+    header = next(iter_trace(path))
+    try:
+        return write_mcap(header, records, out_dir / MCAP_NAME, result_beside(path, header.get("run_id")))
+    except FoxgloveMissing as exc:
+        raise ExportError(str(exc)) from None
 
 
 def dataframe(run, name: str):
@@ -325,9 +346,12 @@ def _arrow_table(pa, schema, columns: list[str], text: dict[str, bool], rows: li
 
 def add_parser(sub) -> None:
     """Register ``swarmactors export`` on the command line's subparsers."""
-    sp = sub.add_parser("export", help="write a run's trace as tables (poses, frames) in csv, json or parquet")
+    sp = sub.add_parser("export", help="write a run's trace as tables (poses, frames) in csv, json or parquet, "
+                                      "or as an MCAP file for Foxglove")
     sp.add_argument("run", type=Path, help="run directory (with result.json and trace.msgpack), or the trace file")
-    sp.add_argument("--format", choices=FORMATS, default="csv", help="table format (parquet needs pyarrow)")
+    sp.add_argument("--format", choices=FORMATS, default="csv",
+                    help="table format (parquet needs pyarrow), or mcap: one run.mcap file for Foxglove "
+                         "(needs the [foxglove] extra)")
     sp.add_argument("--out", type=Path, help="directory for the tables (default: the run's directory)")
 
 

@@ -28,13 +28,13 @@ from typing import Any
 import msgspec
 import numpy as np
 
-from swarmactors.behavior import Behavior, Context, Frame, Sensed
+from swarmactors.behavior import Behavior, Context, Frame, Sensed, params_problem
 from swarmactors.knownmap import KnownMap
 from swarmactors.plugins import RefusedBehavior, resolve_behavior
 from swarmactors.precise_timer import LoopTimer, PreciseTimer, plain_loop, precise_loop
 from swarmactors.robot_clock import robot_clock
 from swarmactors.tasks import TaskSet
-from transport import Keys, Link, MalformedMessage, pack, seal, unseal
+from transport import Keys, Link, MalformedMessage, host_loss_s, pack, seal, unseal
 from transport.auth import run_secret_from_env, verifies
 from transport.messages import (
     PROTOCOL_VERSION,
@@ -114,6 +114,9 @@ class Robot:
                     raise ValueError(f"behaviour {spec.get('use')!r} does not support sensing_frame = "
                                      f"{descr.sensing_frame!r} (it supports {', '.join(cls.frames)})")
                 params = {k: v for k, v in spec.items() if k not in ("use", "as")}
+                problem = params_problem(cls, params)  # the scenario's checks again: a spec may come from the wire
+                if problem:
+                    raise RefusedBehavior(f"refused behaviour {spec.get('use')!r}: {problem}")
                 b = cls(**params)
                 self.behaviors.append(b)
                 self.report_names.append(spec.get("as") or type(b).name or spec["use"])
@@ -402,6 +405,8 @@ class RobotHost:
         self.run_info: RunInfo | None = None
         self.tick = -1
         self.gone = False  # the world answered a step with Stop(gone): it had lost this host
+        self.heard_at = time.monotonic()  # the last authentic downlink, or this host's last uplink (_world_silent)
+        self.silent_s = 0.0  # how long the world had been silent when this host gave up on it
         self._rt_slice = RT_SLICE  # realtime: robots per event-loop callback (set again when the run starts)
 
     async def join(
@@ -449,7 +454,8 @@ class RobotHost:
         self.link.watch_liveliness(self.keys.world_alive, lambda _key, alive: alive or world_gone.set())
         clock = asyncio.ensure_future(self._run_lockstep() if self.run_info.clock == "lockstep"
                                       else self._run_realtime())
-        watch = asyncio.ensure_future(world_gone.wait())
+        self.heard_at = time.monotonic()
+        watch = asyncio.ensure_future(self._world_silent(world_gone))
         try:
             await asyncio.wait({clock, watch}, return_when=asyncio.FIRST_COMPLETED)
             if not clock.done():  # the world's token went: a run that was ending anyway may still finish
@@ -461,13 +467,34 @@ class RobotHost:
                 await asyncio.wait({clock}, timeout=1.0)
         if clock.done() and not clock.cancelled() and (clock.exception() is None or not world_gone.is_set()):
             return clock.result()  # the run's own end (or its own error)
+        if self.silent_s:
+            raise WorldLost(f"lost the world of run {self.keys.run_id!r} at tick {self.tick}: it sent nothing for "
+                            f"{self.silent_s:.0f} s (a world tells its hosts it is there every watchdog_s; a host "
+                            "stops after 2·watchdog_s + 5 s of silence)")
         raise WorldLost(f"lost the world of run {self.keys.run_id!r} at tick {self.tick}: its liveliness token "
                         "vanished (the world died, or its session dropped this host after a silence longer than "
                         "the lease, 2·watchdog_s + 5 s)")
 
+    async def _world_silent(self, world_gone: asyncio.Event) -> None:
+        """Return when the world's token vanishes, or when it sent nothing for 2·watchdog_s + 5 s.
+
+        A world, even paused, acks each host every ``watchdog_s`` (World._keep_hosts_informed); this host's own
+        uplinks count as activity too, so a long step of its own is not taken for the world's silence.
+        """
+        limit = host_loss_s(self.run_info.watchdog_s)
+        while not world_gone.is_set():
+            try:
+                await asyncio.wait_for(world_gone.wait(), min(1.0, limit))
+            except TimeoutError:
+                quiet = time.monotonic() - self.heard_at
+                if quiet > limit:
+                    self.silent_s = quiet
+                    return
+
     # -- common to both clocks -----------------------------------
     def _uplink(self, tick: int, rows: list[RobotOut] = (), reports: dict | None = None) -> bytes:
         """An uplink message, sealed with this host's key (transport.auth)."""
+        self.heard_at = time.monotonic()
         return seal(self.key, encode(Uplink(self.name, tick, list(rows), reports)))
 
     def _take_membership(self, msg: Inputs) -> None:
@@ -499,7 +526,11 @@ class RobotHost:
         if verifies(key, data):
             return True
         self.bad_downlinks += 1
-        log.warning("host %s dropped a downlink that fails authentication (%d so far)", self.name, self.bad_downlinks)
+        n = self.bad_downlinks
+        level = logging.WARNING if n & (n - 1) == 0 else logging.DEBUG  # the 1st, 2nd, 4th, 8th, ... of them
+        what = "downlink" if self.name else "join reply"
+        log.log(level, "host %s dropped a %s that fails authentication (%d so far)",
+                self.name or f"joining run {self.keys.run_id!r}", what, n)
         return False
 
     async def _ask(self, uplink: str, data: bytes, timeout: float) -> Downlink:  # noqa: ASYNC109 — a Zenoh query's own timeout
@@ -646,6 +677,7 @@ class RobotHost:
         """A message on ``down/{host}``: kept only when it is sealed under this host's key."""
         if not self._verify(self.key, payload):
             return
+        self.heard_at = time.monotonic()
         try:
             msg = decode(unseal(self.key, payload, what="downlink"), Downlink, what="downlink")
         except MalformedMessage as exc:

@@ -12,13 +12,17 @@ through ``resolve_behavior``: a spec names a registered entry point, or a
 ``module:Class`` whose module the host's operator allowed (``--allow MODULE``,
 or the scenario's own modules for ``run``/``world``), and the object must be a
 ``Behavior`` subclass. Nothing outside that set is imported, let alone called.
+
+A family's pluggable rules (stigmergy's conflict rules, CBAA's scores, ...) are a ``Rules`` registry: a
+parameter names a built-in rule or an entry point of the family's group, and is never read as an import path.
+No parameter that reaches a robot - from a scenario, a control command or a join reply - becomes code.
 """
 
 from __future__ import annotations
 
 import pkgutil
 import sys
-from collections.abc import Collection
+from collections.abc import Callable, Collection, Iterator, Mapping
 from functools import cache
 from importlib.metadata import entry_points
 from typing import Any
@@ -92,3 +96,58 @@ def resolve_behavior(use: Any, allow: Collection[str] = ()) -> type:
     if not (isinstance(obj, type) and issubclass(obj, Behavior)):
         raise RefusedBehavior(f"refused behaviour {use!r}: {type(obj).__name__} {obj!r} is not a Behavior subclass")
     return obj
+
+
+class UnknownRule(PluginError, ValueError):
+    """A rule name that is neither built in nor registered under the family's entry-point group."""
+
+
+class Rules(Mapping[str, Callable]):
+    """A family's pluggable rules, chosen by name: its built-ins, then the entry points of ``group``.
+
+    A name is looked up, never imported as a path ("module:function" is refused like any unknown name), so a
+    parameter from a scenario, a control command or a join reply selects only code that the family or an
+    installed package registered. Python callers may pass the callable itself instead of a name.
+    A third-party rule registers as ``[project.entry-points."<group>"] name = "package.module:function"``.
+    """
+
+    def __init__(self, what: str, group: str, builtins: Mapping[str, Callable]):
+        self.what, self.group = what, group
+        self.builtins = dict(builtins)
+
+    def _registered(self) -> dict[str, str]:
+        return {k: v for k, v in available(self.group).items() if k not in self.builtins}
+
+    def __iter__(self) -> Iterator[str]:
+        return iter([*self.builtins, *sorted(self._registered())])
+
+    def __len__(self) -> int:
+        return len(self.builtins) + len(self._registered())
+
+    def __getitem__(self, name: str) -> Callable:
+        if not isinstance(name, str):
+            raise KeyError(name)
+        if name in self.builtins:
+            return self.builtins[name]
+        if name in self._registered():
+            fn = resolve(self.group, name)
+            if not callable(fn):
+                raise UnknownRule(f"{self.what} {name!r}: the entry point gives {type(fn).__name__}, not a function")
+            return fn
+        raise KeyError(name)
+
+    def problem(self, name: object) -> str | None:
+        """Why ``name`` does not name a rule of this registry (a parameter's validation), or None."""
+        if isinstance(name, str) and name in self:
+            return None
+        return (f"{self.what} {name!r} is not one of {', '.join(self)} (a rule is chosen by name; register "
+                f"your own under the entry-point group {self.group!r}, or pass the function in Python)")
+
+    def get(self, name: str | Callable) -> Callable:  # type: ignore[override]
+        """The rule named ``name`` (or ``name`` itself when it is a callable); UnknownRule otherwise."""
+        if callable(name):
+            return name
+        try:
+            return self[name]
+        except KeyError:
+            raise UnknownRule(self.problem(name)) from None

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from swarmactors.behavior import check_params, is_num
+from swarmactors.behavior import is_num, params_problem
 from swarmactors.plugins import BEHAVIORS, CHECKS, PluginError, resolve
 from transport.messages import ACTIONS, action_problem
 
@@ -696,15 +696,9 @@ def _behavior(b: Any, where: str, source: str, group: dict | None = None) -> dic
     if frame not in getattr(cls, "frames", ("global",)):
         raise ScenarioError(source, where, f"behaviour {b['use']!r} does not support sensing_frame = {frame!r} "
                                            f"(it supports {', '.join(getattr(cls, 'frames', ('global',)))})")
-    problem = check_params(cls, params)
+    problem = params_problem(cls, params, group or {})
     if problem:
         raise ScenarioError(source, where, f"{b['use']}: {problem}")
-    validate = getattr(cls, "validate", None)
-    if validate is not None:
-        takes_group = "group" in inspect.signature(validate).parameters
-        problem = validate(params, group=group) if takes_group else validate(params)
-        if problem:
-            raise ScenarioError(source, where, f"{b['use']}: {problem}")
     return {"use": b["use"], "as": b.get("as") or getattr(cls, "name", "") or b["use"], **params}
 
 
@@ -762,7 +756,6 @@ def _check(c: Any, where: str, source: str) -> dict:
         raise ScenarioError(source, f"{where}.use", str(exc)) from None
     params = {k: v for k, v in c.items() if k != "use"}
     try:
-        import inspect
 
         inspect.signature(fn).bind(None, **params)
     except TypeError as exc:

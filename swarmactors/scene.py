@@ -156,6 +156,10 @@ class Scene:
         if isinstance(ev, dict):
             self._event(ev, prev=None)
 
+    def sync(self) -> None:
+        """Take in the newest ``state`` message, if one came since (``feed_state`` only keeps it)."""
+        self._decode_state()
+
     def _decode_state(self) -> None:
         raw, self._raw_state = self._raw_state, None
         if raw is None:

@@ -49,6 +49,12 @@ def command(args, err: Console) -> int:
 def _view(args) -> int:
     from swarmactors.viewer import serve_remote
 
+    if args.foxglove is not None:
+        from swarmactors.foxglove_live import serve_remote as serve_foxglove
+
+        check_foxglove(args)
+        asyncio.run(serve_foxglove(args.connect, args.run_id, args.foxglove_host, args.foxglove, announce=_say))
+        return EXIT_OK
     asyncio.run(serve_remote(args.connect, args.run_id, args.view_host, args.view_port, announce=_say))
     return EXIT_OK
 
@@ -75,8 +81,25 @@ class _Session:
         self.inner.linger()
 
 
-def view_session(args) -> _Session:
+def view_session(args):
+    """The session of ``run/world --view`` (the web page) or ``--foxglove`` (the Foxglove feed)."""
+    if getattr(args, "foxglove", None) is not None:
+        from swarmactors.foxglove_live import FoxgloveSession, warn_if_exposed
+
+        warn_if_exposed(args.foxglove_host)
+        return FoxgloveSession(args.foxglove_host, args.foxglove, announce=_say)
     return _Session(args)
+
+
+def check_foxglove(args) -> None:
+    """``--foxglove`` can be served: the extra is installed (else ValueError naming it), no ``--view`` beside it."""
+    from swarmactors.foxglove_topics import sdk
+
+    if getattr(args, "view", False):
+        raise ValueError("--view and --foxglove: choose one (the web page or the Foxglove feed)")
+    if args.foxglove < 0 or args.foxglove > 65535:
+        raise ValueError(f"--foxglove {args.foxglove}: not a port number (0 to 65535; 0 picks a free one)")
+    sdk()
 
 
 # ---------------------------------------------------------------- charts
@@ -134,6 +157,15 @@ def _replay(args, err: Console) -> int:
     from swarmactors.viewer import serve_replay
 
     Replay(trace, verify=verify)  # read it now: a bad file is an error before the server starts
+    if args.foxglove is not None:
+        from swarmactors.foxglove_live import serve_replay as serve_foxglove
+
+        check_foxglove(args)
+        if not args.rate > 0:
+            raise ValueError(f"--rate {args.rate}: must be a positive number of ticks per second")
+        asyncio.run(serve_foxglove(trace, args.foxglove_host, args.foxglove, args.rate, announce=_say,
+                                   verify=verify))
+        return EXIT_OK
     asyncio.run(serve_replay(trace, args.view_host, args.view_port, announce=_say, verify=verify))
     return EXIT_OK
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import functools
+import inspect
 import json
 import math
 import os
@@ -20,25 +21,31 @@ import subprocess
 import sys
 import threading
 import time
+import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
+import tomli_w
 import zenoh
 
+from protocols.cbaa.rules import SCORES
+from protocols.stigmergy.table import CONFLICT_RULES
 from swarmactors.behavior import Behavior
-from swarmactors.host import Robot
+from swarmactors.host import Robot, RobotHost, WorldLost
 from swarmactors.launcher import new_run_id, private_endpoints, run_world
 from swarmactors.launcher import run as launcher_run
-from swarmactors.plugins import BEHAVIORS, RefusedBehavior, allowed, available, resolve_behavior
-from swarmactors.scenario import resolve_scenario, world_spec
+from swarmactors.plugins import BEHAVIORS, RefusedBehavior, UnknownRule, allowed, available, resolve, resolve_behavior
+from swarmactors.scenario import ScenarioError, resolve_scenario, world_spec
 from swarmactors.scene import Scene
 from swarmactors.trace import TraceHasher
 from swarmactors.viewer import Source, ViewerServer
 from test_bad_input import FLOOD_RAW, PAUSE_AT, FakeLink, FakeQuery, WireRun, _get, _HostThread
-from transport import Endpoints, Keys, make_config, pack, seal, unpack
+from transport import Endpoints, Keys, Link, host_loss_s, make_config, pack, seal, unpack
 from transport.messages import (
     MAX_PER_REQUEST,
+    PROTOCOL_VERSION,
+    Ack,
     Inputs,
     JoinReply,
     JoinRequest,
@@ -54,6 +61,7 @@ from world.kinematics import MAX_SPEED, bad_positions, velocity_problem
 from world.world import World
 
 HONEST = 30  # FLOOD_RAW's robots
+SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 
 
 def _honest_deliveries(result) -> list:
@@ -144,6 +152,218 @@ def test_attack_control_add_with_foreign_behaviour(tmp_path, marker_module, undi
     events = [ev for rec in result.trace for ev in rec.get("ev", []) if ev.get("failed") == "refused_behavior"]
     assert sorted(ev["robot"] for ev in events) == added
     assert _honest_deliveries(result) == _honest_deliveries(undisturbed)
+
+
+# ------------------------------------------------------------------ 0. no code from parameters
+def _planted(module: str, marker: Path) -> list[dict]:
+    """Behaviour specs whose string parameters name code.
+
+    A marker module's function, and the shell-reaching ``cProfile:run`` with a write whose key is a Python
+    statement (two robots' equal-timestamp writes conflict, so the conflict rule is called with that key);
+    CBAA's scores likewise (``this:s`` imports ``this``).
+    """
+    statement = f"__import__('pathlib').Path({str(marker)!r}).write_text('shell')"
+    writes = [{"at": 1, "robot": r, "key": statement, "value": r} for r in (0, 1)]
+    return [{"use": "stigmergy", "conflict": f"{module}:Evil", "writes": writes},
+            {"use": "stigmergy", "conflict": "cProfile:run", "writes": writes},
+            {"use": "cbaa", "tasks": [[1.0, 1.0]], "score": f"{module}:Evil"},
+            {"use": "cbaa", "tasks": [[1.0, 1.0]], "score": "this:s"}]
+
+
+def _no_code_ran(module: str, marker: Path) -> None:
+    assert not marker.exists(), marker.read_text()
+    assert module not in sys.modules and "this" not in sys.modules
+
+
+def _adds(specs: list[dict]) -> list[dict]:
+    """Two robots side by side per planted spec (a conflict needs two writers)."""
+    return [{"pos": [1.0 + 0.2 * i, 1.0 + 0.1 * j], "behaviors": [spec]}
+            for i, spec in enumerate(specs) for j in range(2)]
+
+
+@pytest.mark.parametrize("which", range(4))
+def test_a_scenario_naming_code_in_a_parameter_is_refused_at_load(tmp_path, marker_module, which):
+    name, marker = marker_module
+    spec = _planted(name, marker)[which]
+    raw = {"run": {"name": "p", "ticks": 5}, "robots": [{"count": 2, "behaviors": [spec]}]}
+    param = "conflict" if spec["use"] == "stigmergy" else "score"
+    with pytest.raises(ScenarioError, match=rf"robots\[0\]\.behaviors\[0\]: {spec['use']}: .*{param}.*chosen by name"):
+        resolve_scenario(raw, "<t>")
+    _no_code_ran(name, marker)
+
+
+@pytest.mark.slow
+def test_the_cli_refuses_a_scenario_file_naming_code_with_exit_2(tmp_path, marker_module):
+    name, marker = marker_module
+    path = tmp_path / "evil.toml"
+    spec = _planted(name, marker)[1]
+    path.write_text(tomli_w.dumps({"run": {"name": "evil", "ticks": 5},
+                                   "robots": [{"count": 2, "behaviors": [spec]}]}))
+    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    done = subprocess.run([sys.executable, "-m", "swarmactors", "run", str(path), "--out", str(tmp_path / "o")],
+                          capture_output=True, text=True, env=env, timeout=60)
+    assert done.returncode == 2, done.stderr
+    assert "evil.toml: robots[0].behaviors[0]: stigmergy: conflict" in done.stderr
+    assert not marker.exists()
+
+
+def test_a_host_refuses_a_wire_spec_naming_code(marker_module):
+    """What a host builds from a join reply or an ``add`` is validated as a scenario's spec: refused, not built."""
+    name, marker = marker_module
+    run = RunInfo("lockstep", 1.0, 1, 10, 1.0, 0)
+    for spec in _planted(name, marker):
+        robot = Robot(RobotDescr(0, [0.0, 0.0, 0.0], [spec], "ground", 1.0, 1.0, 1.0), run)
+        assert not robot.alive and robot.error.startswith(f"refused behaviour {spec['use']!r}"), robot.error
+        assert "chosen by name" in robot.error
+    _no_code_ran(name, marker)
+
+
+def test_rules_are_chosen_by_name_only(marker_module):
+    name, marker = marker_module
+    for rules in (CONFLICT_RULES, SCORES):
+        for bad in (f"{name}:Evil", name, "os:system", "", None, 3):
+            assert rules.problem(bad) and "chosen by name" in rules.problem(bad)
+            with pytest.raises(UnknownRule):
+                rules.get(bad)
+        first = next(iter(rules))
+        assert rules.problem(first) is None and rules.get(first) is rules[first]
+        assert rules.get(len) is len  # a callable passed in Python is the caller's own code
+    _no_code_ran(name, marker)
+
+
+def test_every_registered_behaviours_string_parameters_never_become_code(tmp_path, marker_module):
+    """Walk every registered behaviour: each parameter that takes a string gets a path to a marker module.
+
+    The spec must be refused at load, or, if the parameter is plain data (a table id, a name prefix), a run of
+    the behaviour with it must never import the module.
+    """
+    name, marker = marker_module
+    shipped = {}
+    for path in sorted(SCENARIOS.glob("*.toml")):
+        raw = tomllib.loads(path.read_text())
+        for gi, group in enumerate(raw.get("robots", [])):
+            for bi, spec in enumerate(group.get("behaviors", [])):
+                shipped.setdefault(spec["use"], (path, gi, bi))
+    exercised = 0
+    for use in sorted(available(BEHAVIORS)):
+        cls = resolve(BEHAVIORS, use)
+        strings = [p.name for p in inspect.signature(cls).parameters.values()
+                   if isinstance(p.default, str) or "str" in str(p.annotation)]
+        for param in strings:
+            for plant in (f"{name}:Evil", name):
+                if use not in shipped:
+                    raw = {"run": {"name": "walk", "ticks": 3}, "robots": [{"count": 2, "behaviors": [{"use": use}]}]}
+                    gi = bi = 0
+                else:
+                    path, gi, bi = shipped[use]
+                    raw = tomllib.loads(path.read_text())
+                raw["robots"][gi]["behaviors"][bi][param] = plant
+                raw["run"] = {**raw["run"], "ticks": 3, "trace": False}
+                raw["checks"] = []
+                try:
+                    resolve_scenario(raw, f"{use}.{param}")
+                except ScenarioError:
+                    continue  # refused at load
+                launcher_run(raw, out=tmp_path / f"{use}-{param}")  # plain data: the run must not import it
+                exercised += 1
+                _no_code_ran(name, marker)
+    assert exercised >= 2  # sid and task_prefix are data: the walk did run behaviours with the planted strings
+    _no_code_ran(name, marker)
+
+
+def _add_planted(specs: list[dict]):
+    def inject(wr, z, status):
+        wr.replies["add"] = _get(z, wr.keys.control, pack({"cmd": "add", "args": _adds(specs)}))
+    return inject
+
+
+@pytest.mark.slow
+def test_attack_control_add_naming_code_in_parameters(tmp_path, marker_module, undisturbed):
+    """Control ``add`` of stigmergy and CBAA robots whose conflict rule and score name code: refused, counted."""
+    name, marker = marker_module
+    specs = _planted(name, marker)
+    wr = WireRun(FLOOD_RAW, tmp_path / "run", inject=_add_planted(specs))
+    result = wr.run()
+    kind, data = wr.replies["add"]
+    assert kind == "ok" and unpack(data)["ok"]
+    _no_code_ran(name, marker)
+    added = [rid for rid in result.robots if rid >= HONEST]
+    assert len(added) == 2 * len(specs)
+    for rid in added:
+        failed = result.robots[rid]["failed"]
+        assert failed["cause"] == "refused_behavior" and "chosen by name" in failed["error"], failed
+    assert result["world"]["refused"] == {"refused_behavior": len(added)}
+    assert _honest_deliveries(result) == _honest_deliveries(undisturbed)
+
+
+def _find_control_and_add(specs: list[dict], replies: dict):
+    """An outsider on the run's TCP port: finds the control queryable with a wildcard (no run id), adds, stops."""
+    def on_open(world, link):
+        def attack():
+            z = zenoh.open(make_config(Endpoints(mode="peer", connect=[link.locators()[0]])))
+            try:
+                replies["add"] = _get(z, "swarmactors/*/control", pack({"cmd": "add", "args": _adds(specs)}))
+                deadline = time.monotonic() + 30
+                while time.monotonic() < deadline:
+                    st_ = unpack(_get(z, "swarmactors/*/control", pack({"cmd": "status"}))[1])
+                    if st_["robots"] == 2 + 2 * len(specs) and st_["alive"] == 2:
+                        break
+                    time.sleep(0.05)
+                replies["stop"] = _get(z, "swarmactors/*/control", pack({"cmd": "stop"}))
+            finally:
+                z.close()
+        threading.Thread(target=attack, daemon=True).start()
+    return on_open
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("processes", [0, 2])
+def test_attack_run_tcp_add_naming_code_in_parameters(tmp_path, marker_module, monkeypatch, processes):
+    """``run --tcp`` with K = 0 and K = 2: the control queryable is open on loopback; the planted robots are refused."""
+    name, marker = marker_module
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(marker.parent), os.environ.get("PYTHONPATH", "")]))
+    specs = _planted(name, marker)
+    raw = {"run": {"name": "tcp", "seed": 2, "ticks": 100_000, "watchdog_s": 5.0},
+           "robots": [{"positions": [[0.0, 0.0], [0.5, 0.0]], "behaviors": [{"use": "beacon"}]}]}
+    replies: dict = {}
+    with private_endpoints(tcp=True) as endpoints:
+        result = asyncio.run(run_world(resolve_scenario(raw, "<t>"), tmp_path / "run", endpoints,
+                                       new_run_id("tcp"), processes=processes,
+                                       on_open=_find_control_and_add(specs, replies)))
+    assert replies["add"][0] == "ok" and unpack(replies["add"][1])["ok"]
+    _no_code_ran(name, marker)
+    added = [rid for rid in result.robots if rid >= 2]
+    assert len(added) == 2 * len(specs)
+    assert all(result.robots[rid]["failed"]["cause"] == "refused_behavior" for rid in added)
+
+
+@pytest.mark.slow
+def test_attack_rogue_join_reply_naming_code_to_a_host_without_the_run_secret(marker_module, monkeypatch):
+    """A host started without the run secret takes a rogue's join reply on trust: its planted robots are refused."""
+    name, marker = marker_module
+    monkeypatch.delenv("SWARMACTORS_RUN_SECRET", raising=False)
+    keys = Keys(new_run_id("rogue"))
+    run = RunInfo("lockstep", 1.0, 0, 15, 2.0, 0)
+    descrs = [RobotDescr(i, [0.2 * i, 0.0, 0.0], [spec], "ground", 1.0, 1.0, 1.0)
+              for i, spec in enumerate(_planted(name, marker))]
+    reply = encode(JoinReply("h0", bytes(32), PROTOCOL_VERSION, descrs, run))
+
+    async def join() -> RobotHost:
+        with Link(Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"])) as link:
+            rogue = zenoh.open(make_config(Endpoints(mode="peer", connect=[link.locators()[0]])))
+            try:
+                rogue.declare_queryable(keys.join, lambda q: q.reply(q.key_expr, reply))
+                host = RobotHost(link, keys)
+                await host.join(timeout=10)
+                return host
+            finally:
+                rogue.close()
+
+    host = asyncio.run(join())
+    assert sorted(host.robots) == [0, 1, 2, 3]
+    for robot in host.robots.values():
+        assert not robot.alive and robot.error.startswith("refused behaviour"), robot.error
+    _no_code_ran(name, marker)
 
 
 # ------------------------------------------------------------------ 2. velocities and positions
@@ -254,6 +474,21 @@ def test_attack_bad_add_specs_and_caps_are_refused_and_counted(tmp_path, undistu
     assert _honest_deliveries(result) == _honest_deliveries(undisturbed)
 
 
+def _deep_control(wr, z, status):
+    deep = b"\x82\xa3cmd\xa3add\xa4args" + b"\x91" * 200_000 + b"\xc0"
+    wr.replies["deep"] = _get(z, wr.keys.control, deep)
+
+
+@pytest.mark.slow
+def test_attack_a_control_command_nested_200000_levels_deep_is_answered_and_counted(tmp_path, undisturbed):
+    wr = WireRun(FLOOD_RAW, tmp_path / "run", inject=_deep_control, expect_malformed=1)
+    result = wr.run()
+    kind, data = wr.replies["deep"]
+    assert kind == "ok" and unpack(data) == {"ok": False, "error": "bad control command: nested too deeply"}
+    assert result["world"]["dropped"]["malformed"] == 1
+    assert _honest_deliveries(result) == _honest_deliveries(undisturbed)
+
+
 # ------------------------------------------------------------------ 6. bounded samples of a flood
 FLOOD = 300
 
@@ -320,13 +555,13 @@ def test_hosts_joining_in_a_tight_loop_while_the_world_ticks(tmp_path):
 
 @pytest.mark.slow
 def test_attack_joins_at_the_barrier_stale_steps_and_silence(tmp_path, undisturbed):
-    """Joins that land between two ticks (the held-step race), stale and future steps, hosts that never step.
+    """Joins that land between two ticks (the held-step race), stale and future steps, hosts that never register.
 
-    The world serves each joiner from its registration on, counts the stale and future steps as malformed, and
-    declares the silent hosts lost within the watchdog; the honest robots do not notice.
+    The barrier never waits for a host that has not registered, so the run does not stall; the stale and future
+    steps are counted as malformed; the joiners' robots, which never ran, crash as ``unregistered`` when the run
+    ends (or ``register_within_s`` after their join); the honest robots do not notice.
     """
     wr = WireRun(FLOOD_RAW, tmp_path / "run", inject=_joins_at_the_barrier, expect_malformed=3)
-    t0 = time.monotonic()
     result = wr.run()
     assert (tmp_path / "run" / "result.json").is_file() and result["ticks"] == FLOOD_RAW["run"]["ticks"]
     joined = wr.notes["joined"]
@@ -335,12 +570,47 @@ def test_attack_joins_at_the_barrier_stale_steps_and_silence(tmp_path, undisturb
     assert result["world"]["dropped"]["malformed"] == 3
     mal = [m for rec in result.trace for m in rec.get("mal", [])]
     assert sum("stale step" in m for m in mal) == 2 and sum("future step" in m for m in mal) == 1
-    lost = [ev for rec in result.trace for ev in rec.get("ev", []) if "host_lost" in ev]
-    assert {ev["host_lost"] for ev in lost} == {j.host for j in joined}
-    assert all(ev["cause"] == "watchdog" and ev["t"] == PAUSE_AT for ev in lost)
-    limit = 2 * FLOOD_RAW["run"]["watchdog_s"] + 5.0
-    assert time.monotonic() - t0 < limit + 10
+    assert {result.robots[rid]["host"] for rid in range(HONEST, HONEST + JOINERS)} == {j.host for j in joined}
+    assert result["world"]["refused"] == {"unregistered": JOINERS}
+    assert all(result.robots[rid]["failed"]["cause"] == "unregistered" for rid in range(HONEST, HONEST + JOINERS))
+    # no tick waited for them: the run after the pause took far less than one host-loss bound (2 * 0.5 + 5 s)
+    assert result["wall_s"] < host_loss_s(FLOOD_RAW["run"]["watchdog_s"]), result["wall_s"]
     assert _honest_deliveries(result) == _honest_deliveries(undisturbed)
+
+
+# joiners are placed at random in the bounds: wide bounds keep 8,000 of them sparse (their physics is not the point)
+NEVER_REGISTERS_RAW = {**FLOOD_RAW, "run": {**FLOOD_RAW["run"], "ticks": 60, "watchdog_s": 10.0},
+                       "world": {"bounds": [[0.0, 0.0], [400.0, 400.0]]},
+                       "robots": [{**FLOOD_RAW["robots"][0], "area": [[0.0, 0.0], [4.0, 4.0]]}]}
+
+
+def _join_storm_never_registering(wr, z, status):
+    """Resume, then 8 joins of 1000 robots and single joins every few ticks while the world runs; none registers."""
+    _get(z, wr.keys.control, pack({"cmd": "resume"}))
+    wr.notes["big"] = [_get(z, wr.keys.join, encode(JoinRequest(1000))) for _ in range(8)]
+    wr.notes["small"] = []
+    for _ in range(10):
+        wr.notes["small"].append(_get(z, wr.keys.join, encode(JoinRequest(1))))
+        time.sleep(0.02)
+
+
+@pytest.mark.slow
+def test_attack_joins_that_never_register_do_not_stall_a_lockstep_run(tmp_path):
+    """Joins whose hosts never register (one every few ticks, and 8 of 1000 robots): the run goes on at once.
+
+    Before, each such join stalled the barrier 2 * watchdog_s + 5 s (25 s here), so the run never finished.
+    """
+    wr = WireRun(NEVER_REGISTERS_RAW, tmp_path / "run", inject=_join_storm_never_registering)
+    t0 = time.monotonic()
+    result = wr.run()
+    assert result["ticks"] == NEVER_REGISTERS_RAW["run"]["ticks"] and (tmp_path / "run" / "result.json").is_file()
+    assert time.monotonic() - t0 < host_loss_s(10.0), "a join that never registers stalled the run"
+    extra = range(HONEST, len(result.robots))
+    assert len(extra) >= 8000  # (a small join's reply may time out on a busy machine after the world added it)
+    hosts = {result.robots[rid]["host"] for rid in extra}
+    assert result["world"]["refused"] == {"unregistered": len(hosts)}
+    assert all(result.robots[rid]["failed"]["cause"] == "unregistered" for rid in extra)
+    assert all(result.robots[rid]["alive"] for rid in range(HONEST))
 
 
 # ------------------------------------------------------------------ 5. empty joins
@@ -433,6 +703,55 @@ def test_attack_rogue_join_reply_step_replies_and_downlinks_are_dropped(tmp_path
     assert bad >= 1  # counted by the host, reported with its robots
     if clock == "lockstep":
         assert [rec.get("del") for rec in result.trace] == [rec.get("del") for rec in clean.trace]
+
+
+@pytest.mark.slow
+def test_a_host_whose_world_goes_silent_stops_within_the_host_loss_bound(monkeypatch):
+    """A rogue answers the join and the registration, keeps a world liveliness token, and says nothing more."""
+    monkeypatch.delenv("SWARMACTORS_RUN_SECRET", raising=False)
+    keys = Keys(new_run_id("silent"))
+    watchdog_s = 0.5
+    run = RunInfo("lockstep", 1.0, 0, 15, watchdog_s, 0)
+    key = bytes(32)
+    join = encode(JoinReply("h0", key, PROTOCOL_VERSION, [RobotDescr(0, [0.0, 0.0, 0.0], [{"use": "beacon"}],
+                                                                        "ground", 1.0, 1.0, 1.0)], run))
+    ack = seal(key, encode(Ack(0.0)))
+
+    async def serve() -> tuple[BaseException | None, float]:
+        with Link(Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"])) as link:
+            rogue = zenoh.open(make_config(Endpoints(mode="peer", connect=[link.locators()[0]])))
+            try:
+                rogue.declare_queryable(keys.join, lambda q: q.reply(q.key_expr, join))
+                rogue.declare_queryable(keys.up("h0"), lambda q: q.reply(q.key_expr, ack))
+                rogue.liveliness().declare_token(keys.world_alive)
+                host = RobotHost(link, keys)
+                await host.join(timeout=10)
+                t0 = time.monotonic()
+                try:
+                    await asyncio.wait_for(host.run(), 60)
+                except Exception as exc:
+                    return exc, time.monotonic() - t0
+                return None, time.monotonic() - t0
+            finally:
+                rogue.close()
+
+    error, took = asyncio.run(serve())
+    assert isinstance(error, WorldLost) and "sent nothing for" in str(error), error
+    assert host_loss_s(watchdog_s) <= took < host_loss_s(watchdog_s) + 5
+
+
+def _long_pause(wr, z, status):
+    time.sleep(host_loss_s(FLOOD_RAW["run"]["watchdog_s"]) + 2)  # the world stays paused all along
+
+
+@pytest.mark.slow
+def test_hosts_stay_through_a_lockstep_pause_longer_than_the_host_loss_bound(tmp_path, undisturbed):
+    """A paused world acks its hosts every watchdog_s: they do not take the pause for the world's silence."""
+    wr = WireRun(FLOOD_RAW, tmp_path / "run", inject=_long_pause)
+    result = wr.run()
+    assert wr.hosts_ended_by_themselves and not any(h.error for h in wr.hosts)
+    assert all(r["alive"] for r in result.robots.values())
+    assert _honest_deliveries(result) == _honest_deliveries(undisturbed)
 
 
 # ------------------------------------------------------------------ 8. run on a private Unix socket

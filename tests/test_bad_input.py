@@ -606,7 +606,7 @@ def _fuzz_world(started: bool = True) -> World:
     world = World(copy.deepcopy(_FUZZ_SPEC), FakeLink(), Keys("fuzz"), sinks=[TraceWriter(None, {})])
     if started:
         for name, ids in (("h0", H0_ROBOTS), ("h1", H1_ROBOTS)):
-            world.hosts[name] = HostEntry(name, set(ids), key=bytes(32))
+            world.hosts[name] = HostEntry(name, set(ids), key=bytes(32), registered=True)
             for rid in ids:
                 world.robots.host[rid] = name
         world.unclaimed = []

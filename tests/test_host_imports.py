@@ -1,5 +1,7 @@
 """Robot hosts run without the oracle: no networkx, no scipy, no ``swarmactors.conformance`` (issue 13).
 
+Nor the ``[foxglove]`` extra (foxglove-sdk, mcap): the MCAP export and the live Foxglove feed run beside the world.
+
 The world process may import scipy (KD-trees); a robot host process (K >= 1) runs behaviours only. Every
 built-in behaviour runs in some shipped scenario; each is run for a few ticks with one host process, and a
 test behaviour reports from inside that process what it has imported.
@@ -19,7 +21,8 @@ SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 # between them, every built-in behaviour: beacon, biconnectivity, cbaa, flooding, aat, roles, stigmergy, election
 SHIPPED = ["beacon", "biconnectivity-check", "cbaa", "flooding", "roles-aat", "roles-patrol", "stigmergy"]
 ORACLE = ("sorted(m for m in sys.modules"
-          " if m.split('.')[0] in {'networkx', 'scipy'} or m.startswith('swarmactors.conformance'))")
+          " if m.split('.')[0] in {'networkx', 'scipy', 'foxglove', 'mcap'}"
+          " or m.startswith('swarmactors.conformance'))")
 
 
 def test_the_behavior_api_and_every_builtin_behaviour_load_without_the_oracle():
@@ -42,4 +45,4 @@ def test_a_host_process_that_ran_the_behaviour_imported_no_oracle(run, name):
     assert reports
     for rep in reports:
         assert rep["pid"] != os.getpid()  # reported from the host process, not this one
-        assert rep["modules"] == []  # neither networkx, scipy nor the conformance kit
+        assert rep["modules"] == []  # neither networkx, scipy, the conformance kit nor the foxglove extra

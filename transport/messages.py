@@ -559,3 +559,5 @@ def decode(data: bytes, kind: Any, *, what: str) -> Any:
         return dec.decode(data)
     except msgspec.DecodeError as exc:
         raise MalformedMessage(f"bad {what}: {exc}") from None
+    except RecursionError:  # e.g. a value nested 200,000 levels deep
+        raise MalformedMessage(f"bad {what}: nested too deeply") from None

@@ -22,6 +22,8 @@ class HostEntry:
     alive: bool = True
     reported: bool = False  # final reports received
     registered: bool = False  # its registration step (tick -1) arrived (lockstep: once only)
+    joined_at: float = 0.0  # time.monotonic() of its join: it must register within register_within_s
+    last_down: float = 0.0  # time.monotonic() of its last downlink (World._keep_hosts_informed)
     key: bytes = b""  # per-host uplink authentication key (transport.auth)
     pending_dead: list[int] = field(default_factory=list)  # robots that died since its last inputs
     pending_new: list = field(default_factory=list)  # RobotDescr of robots given to it since then

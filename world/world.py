@@ -92,6 +92,10 @@ class Due(NamedTuple):
     frames: list[tuple[Outgoing, int]]
 
 
+REGISTER_MIN_S = 5.0  # a joined host must register within max(watchdog_s, this) of its join
+UNREGISTERED = "unregistered"  # the cause of a host (and its robots) that joined and never registered
+
+
 def bucket_groups(delay: np.ndarray, now: float) -> list[np.ndarray]:
     """Realtime bookkeeping: copies grouped by the ``BOOKKEEPING_S`` span their due time falls in.
 
@@ -135,6 +139,7 @@ class World:
         self.clock = make_clock(run.get("clock", "lockstep"), self.ticks, self.dt)
         self.watchdog_s = float(run.get("watchdog_s", 10.0))
         self.join_timeout_s = float(run.get("join_timeout_s", 60.0))
+        self.register_within_s = max(self.watchdog_s, REGISTER_MIN_S)
         self.state_every = int(run.get("state_every", 1))
         self.trace_commands = bool(run.get("trace_commands", False))  # "cmd" rows: velocities before the cap
         wspec = spec.get("world", {})
@@ -219,15 +224,19 @@ class World:
 
     async def run(self) -> None:
         """Wait until every robot is claimed, then run the clock to the end (or until stopped)."""
-        await self._wait_ready()
-        self.started = True
-        t0 = asyncio.get_running_loop().time()
+        informer = asyncio.ensure_future(self._keep_hosts_informed())
         try:
-            await self.clock.run(self)
+            await self._wait_ready()
+            self.started = True
+            t0 = asyncio.get_running_loop().time()
+            try:
+                await self.clock.run(self)
+            finally:
+                self.wall_s = asyncio.get_running_loop().time() - t0
+                await self._collect_reports()
+                self.finished = True
         finally:
-            self.wall_s = asyncio.get_running_loop().time() - t0
-            await self._collect_reports()
-            self.finished = True
+            informer.cancel()
 
     def request_stop(self, reason: str, interrupted: bool = False) -> None:
         """Finish the current tick, then end the run (``interrupted``: SIGINT or SIGTERM, do not wait for it)."""
@@ -246,6 +255,7 @@ class World:
         into this tick's record.
         """
         self.record.rec["t"] = self.tick
+        self._release_unregistered()
         for action, source in self.faults.due(self.tick):
             self._apply(action, source)
         alive = self.robots.alive_ids()
@@ -411,7 +421,7 @@ class World:
             q.reply_error("the run has finished")
             return
         name = f"h{len(self.hosts)}"
-        host = HostEntry(name, key=new_key())
+        host = HostEntry(name, key=new_key(), joined_at=time.monotonic())
         if not self.started:
             take = len(self.unclaimed) if req.count is None else min(req.count, len(self.unclaimed))
             ids, self.unclaimed = self.unclaimed[:take], self.unclaimed[take:]
@@ -426,7 +436,7 @@ class World:
                 q.reply_error(reason)
                 return
             template = dict(self.spec["robots"][0]) if self.spec["robots"] else {}
-            specs = [self._placed_like(template) for _ in range(want)]
+            specs = [self._placed_like(template, len(self.robots) + i) for i in range(want)]
             ids = self.robots.add(specs, tick=self.tick)
             self.record.event(self.tick, {"added": ids, "source": "join"})
         for rid in ids:
@@ -441,7 +451,23 @@ class World:
 
     def _down(self, host: str, msg) -> bytes:
         """A downlink message for ``host``, sealed with its key (transport.auth)."""
-        return seal(self.hosts[host].key, encode(msg))
+        entry = self.hosts[host]
+        entry.last_down = time.monotonic()
+        return seal(entry.key, encode(msg))
+
+    async def _keep_hosts_informed(self) -> None:
+        """Every ``watchdog_s``, an ``Ack`` to each registered host that heard nothing for that long.
+
+        A lockstep world may be paused, waiting for its start or for a slow host; the ack tells its hosts it is
+        there. A host that hears nothing for 2·watchdog_s + 5 s (``host_loss_s``, the rule the world applies to
+        silent hosts) stops: a world that went silent, or a rogue that answered its join and went away.
+        """
+        while True:
+            await asyncio.sleep(self.watchdog_s)
+            quiet = time.monotonic() - self.watchdog_s
+            for entry in self._live_host_entries():
+                if (entry.registered or entry.name in self._held) and entry.last_down < quiet:
+                    self.link.publish(self.keys.down(entry.name), self._down(entry.name, Ack(self.clock.epoch)))
 
     def _robot_descr(self, rid: int) -> RobotDescr:
         s = self.robots.spec[rid]
@@ -455,9 +481,12 @@ class World:
                           float(self.robots.speed[rid]), bool(s.get("knows_map", False)),
                           **self.situated.descr(rid))
 
-    def _placed_like(self, template: dict) -> dict:
-        """A robot spec for a host joining mid-run: template parameters, random position in bounds."""
-        n = len(self.robots)
+    def _placed_like(self, template: dict, rid: int) -> dict:
+        """Robot ``rid``'s spec for a host joining mid-run: template parameters, a random position in bounds.
+
+        The draw is keyed on (tick, rid), so each robot of one join gets its own position.
+        """
+        n = rid
         lo, hi = (self.bounds if self.bounds is not None else np.array([[0.0] * self.dims, [1.0] * self.dims]))
         u = rng.uniform(self.seed, rng.PLACEMENT, self.tick, n, np.arange(self.dims))
         return {k: v for k, v in template.items() if k != "pos"} | {"pos": list(lo + u * (hi - lo))}
@@ -467,16 +496,49 @@ class World:
             self._ready.set()
 
     async def _wait_ready(self) -> None:
-        try:
-            await asyncio.wait_for(self._ready.wait(), self.join_timeout_s)
-        except TimeoutError:
-            claimed = ", ".join(f"{h.name} ({len(h.robots)})" for h in self.hosts.values()) or "none"
-            waiting = [h for h in self._live_hosts() if h not in self._held]
-            raise RuntimeError(
-                f"{len(self.unclaimed)} robot(s) were not claimed by any host within "
-                f"{self.join_timeout_s:.0f} s (robot hosts must join {self.keys.join}); hosts that claimed "
-                f"robots: {claimed}" + (f"; never registered: {', '.join(waiting)}" if waiting else "")
-            ) from None
+        """Wait until every robot is claimed and every claiming host registered (``join_timeout_s`` at most).
+
+        A host that claimed robots and does not register within ``register_within_s`` gives them back to the
+        unclaimed ones (``_release_unregistered``), for another host to claim.
+        """
+        deadline = time.monotonic() + self.join_timeout_s
+        while not self._ready.is_set():
+            left = deadline - time.monotonic()
+            if left <= 0:
+                claimed = ", ".join(f"{h.name} ({len(h.robots)})" for h in self.hosts.values()) or "none"
+                waiting = [h for h in self._live_hosts() if h not in self._held]
+                raise RuntimeError(
+                    f"{len(self.unclaimed)} robot(s) were not claimed by any host within "
+                    f"{self.join_timeout_s:.0f} s (robot hosts must join {self.keys.join}); hosts that claimed "
+                    f"robots: {claimed}" + (f"; never registered: {', '.join(waiting)}" if waiting else ""))
+            try:
+                await asyncio.wait_for(self._ready.wait(), min(left, 0.5))
+            except TimeoutError:
+                self._release_unregistered()
+
+    def _release_unregistered(self, every: bool = False) -> None:
+        """A host that joined and did not register within ``register_within_s`` (``every``: at all) loses its claim.
+
+        Before the run starts its robots go back to the unclaimed ones; during the run, and at its end, they crash
+        with the cause ``unregistered`` (the lockstep barrier never waited for them: ``_barrier_hosts``). Counted
+        under ``world.refused.unregistered``.
+        """
+        now = time.monotonic()
+        late = [h for h in self._live_host_entries() if not h.registered and h.name not in self._held
+                and (every or now - h.joined_at > self.register_within_s)]
+        for entry in late:
+            self.faults.refuse(self.tick, UNREGISTERED, f"host {entry.name} claimed {len(entry.robots)} robot(s) "
+                                                        f"{now - entry.joined_at:.1f} s ago and never registered "
+                                                        f"(a host registers within {self.register_within_s:g} s)")
+            if self.started:
+                self._lose_host(entry.name, UNREGISTERED)
+                continue
+            entry.alive = False
+            self.unclaimed = sorted([*self.unclaimed, *entry.robots])
+            for rid in entry.robots:
+                self.robots.host[rid] = None
+            entry.robots.clear()
+            self.record.event(self.tick, {"host_lost": entry.name, "cause": UNREGISTERED})
 
     # ------------------------------------------------------------ uplinks
     def _on_step_query(self, q: PendingQuery) -> None:
@@ -498,6 +560,7 @@ class World:
             self._take(host, msg)
             q.reply(self._down(host, Ack(self.clock.epoch)))
             if msg.tick == -1:
+                entry.registered = True
                 self._held[host] = (-1, None)
                 self._check_ready()
                 if self.collecting:  # registered after the stop went out: it gets its own
@@ -897,9 +960,13 @@ class World:
     def _live_hosts(self) -> list[str]:
         return [h.name for h in self._live_host_entries()]
 
+    def _barrier_hosts(self) -> list[str]:
+        """The hosts the lockstep barrier waits for: live and registered (a join alone never stalls a tick)."""
+        return [h.name for h in self._live_host_entries() if h.registered or h.name in self._held]
+
     def _all_in(self) -> bool:
-        """Every live host has a step pending for the awaited tick (or has just joined: tick -1)."""
-        return all(self._stepped(h) for h in self._live_hosts())
+        """Every host of the barrier has a step pending for the awaited tick (or its registration: tick -1)."""
+        return all(self._stepped(h) for h in self._barrier_hosts())
 
     def _stepped(self, host: str) -> bool:
         """The host has the awaited step (or its registration, or its final report) pending."""
@@ -914,7 +981,7 @@ class World:
         try:
             await asyncio.wait_for(self._all_stepped.wait(), limit)
         except TimeoutError:
-            for host in self._live_hosts():
+            for host in self._barrier_hosts():
                 if not self._stepped(host):  # whatever else it sent
                     log.error("host %s did not finish tick %d within %.1f s", host, self.tick, limit)
                     self._lose_host(host, "watchdog")
@@ -927,6 +994,7 @@ class World:
         """Tell every live host to stop and wait (bounded) for its robots' reports."""
         stop = Stop(self.tick)
         self.collecting = True
+        self._release_unregistered(every=True)  # robots that never ran: none of their hosts will report
         self._check_reports_in()
         if self.lockstep:  # to the hosts waiting for inputs; a step still on its way gets its Stop when it comes
             self._awaited_tick = self.tick

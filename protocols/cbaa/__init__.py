@@ -77,7 +77,8 @@ in ``dropped`` by reason.
 
 Parameters: ``tasks`` = [[x, y], ...] (a task's id is its index), ``at``
 (first tick), ``score`` (``inverse`` 1/(1 + d/scale), ``exp`` exp(-d/scale),
-``linear`` max(0, scale - d), or ``module:function`` f(robot_pos, task_pos)),
+``linear`` max(0, scale - d), or a score registered under the entry-point group
+``swarmactors.cbaa.scores`` as f(robot_pos, task_pos, scale)),
 ``scale``, ``scores`` (an explicit matrix, one row per robot id, overriding
 ``score``), ``consensus`` (``auto`` | ``max`` | ``table``), ``every``
 (rebroadcast period in ticks while nothing changes), ``quiet_after`` (stop

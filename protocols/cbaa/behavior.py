@@ -50,9 +50,9 @@ class CBAA(Behavior):
         for i, t in enumerate(tasks):
             if not isinstance(t, list) or len(t) not in (2, 3) or not all(is_num(v) for v in t):
                 return f"tasks[{i}] = {t!r} must be [x, y] or [x, y, z]"
-        score = params.get("score", "inverse")
-        if not isinstance(score, str) or (score not in SCORES and ":" not in score):
-            return f"score = {score!r} must be one of {', '.join(SCORES)} or module:function"
+        problem = SCORES.problem(params.get("score", "inverse"))
+        if problem:
+            return problem
         scale = params.get("scale", 1.0)
         if not is_num(scale) or scale <= 0:
             return f"scale = {scale!r} must be a positive number"

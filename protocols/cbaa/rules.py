@@ -3,41 +3,42 @@
 from __future__ import annotations
 
 import math
-import pkgutil
-from collections.abc import Callable
+
+from swarmactors.plugins import Rules
 
 KIND = "BID"
 NEG_INF = float("-inf")
 
 
 # ------------------------------------------------------------------ scores
-def _inverse(d: float, scale: float) -> float:
-    return 1.0 / (1.0 + d / scale)
-
-
-def _exp(d: float, scale: float) -> float:
-    return math.exp(-d / scale)
-
-
-def _linear(d: float, scale: float) -> float:
-    return max(0.0, scale - d)
-
-
-SCORES: dict[str, Callable[[float, float], float]] = {"inverse": _inverse, "exp": _exp, "linear": _linear}
-
-
 def _pad(p: list[float], dims: int) -> list[float]:
     return (list(p) + [0.0] * dims)[:dims]
+
+
+def inverse(pos: list[float], task: list[float], scale: float) -> float:
+    """c_ij = 1 / (1 + d_ij / scale): positive and decreasing in the distance."""
+    return 1.0 / (1.0 + math.dist(pos, task) / scale)
+
+
+def exponential(pos: list[float], task: list[float], scale: float) -> float:
+    """Score c_ij = exp(-d_ij / scale)."""
+    return math.exp(-math.dist(pos, task) / scale)
+
+
+def linear(pos: list[float], task: list[float], scale: float) -> float:
+    """c_ij = max(0, scale - d_ij): a task beyond ``scale`` gets no bid."""
+    return max(0.0, scale - math.dist(pos, task))
+
+
+SCORES = Rules("score", "swarmactors.cbaa.scores", {"inverse": inverse, "exp": exponential, "linear": linear})
+"""Scores by name; a third-party score ``fn(robot_pos, task_pos, scale) -> float`` registers under the group."""
 
 
 def score_row(pos: list[float], tasks: list[list[float]], score: str = "inverse", scale: float = 1.0) -> list[float]:
     """c_ij for one robot at ``pos`` (the robots and the oracle share this function)."""
     pos = [float(v) for v in pos]
-    if score in SCORES:
-        fn = SCORES[score]
-        return [float(fn(math.dist(pos, _pad(t, len(pos))), scale)) for t in tasks]
-    custom = pkgutil.resolve_name(score)
-    return [float(custom(list(pos), _pad(t, len(pos)))) for t in tasks]
+    fn = SCORES.get(score)
+    return [float(fn(pos, _pad(t, len(pos)), scale)) for t in tasks]
 
 
 def pair(bid: float, winner: int | None) -> tuple[float, float]:

@@ -39,9 +39,9 @@ def _validate_common(params: dict) -> str | None:
     ae = params.get("anti_entropy", 0)
     if not _non_negative_int(ae):
         return f"anti_entropy = {ae!r} must be a non-negative integer (ticks; 0 = off)"
-    rule = params.get("conflict", "higher_id")
-    if not isinstance(rule, str) or (rule not in CONFLICT_RULES and ":" not in rule):
-        return f"conflict = {rule!r} must be one of {', '.join(CONFLICT_RULES)} or module:function"
+    problem = CONFLICT_RULES.problem(params.get("conflict", "higher_id"))
+    if problem:
+        return f"conflict: {problem}"
     if not isinstance(params.get("tombstones", True), bool):
         return "tombstones must be true or false"
     sid = params.get("sid", 0)
@@ -56,7 +56,8 @@ class StigmergyScript(Behavior):
     Parameters: ``writes`` = [{at, robot, key, value} or {at, robot, key,
     delete = true}], ``reads`` = [{at, robot, key}] (a ``get``, which sends a
     VS_QUERY), ``sid``, ``conflict`` (``higher_id`` | ``lower_value`` |
-    ``higher_value`` | ``module:function``), ``tombstones``, ``anti_entropy``
+    ``higher_value`` | a rule registered under
+    ``swarmactors.stigmergy.conflict_rules``), ``tombstones``, ``anti_entropy``
     (ticks between digests; 0 = off).
     """
 

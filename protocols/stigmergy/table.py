@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import math
-import pkgutil
 from collections import Counter, OrderedDict
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
 from swarmactors import Context, Frame
 from swarmactors.behavior import is_int
+from swarmactors.plugins import Rules
 
 PUT = "VS_PUT"
 QUERY = "VS_QUERY"
@@ -72,25 +72,17 @@ def higher_value(key: Any, local: Entry, remote: Entry) -> Entry:
     return local if local.writer > remote.writer else remote
 
 
-CONFLICT_RULES: dict[str, Callable[[Any, Entry, Entry], Entry]] = {
+CONFLICT_RULES = Rules("conflict rule", "swarmactors.stigmergy.conflict_rules", {
     "higher_id": higher_id,
     "lower_value": lower_value,
     "higher_value": higher_value,
-}
+})
+"""C1's rules by name; a third-party rule ``fn(key, local, remote) -> Entry`` registers under the group."""
 
 
 def conflict_rule(name: str | Callable) -> Callable[[Any, Entry, Entry], Entry]:
-    """Return a built-in rule by name, a ``module:function`` path, or a callable."""
-    if callable(name):
-        return name
-    if name in CONFLICT_RULES:
-        return CONFLICT_RULES[name]
-    if ":" not in str(name):
-        raise ValueError(f"unknown conflict rule {name!r} (known: {', '.join(CONFLICT_RULES)}, or module:function)")
-    fn = pkgutil.resolve_name(str(name))
-    if not callable(fn):
-        raise ValueError(f"{name!r} is not callable")
-    return fn
+    """Return the conflict rule registered as ``name`` (or ``name`` itself when it is a callable)."""
+    return CONFLICT_RULES.get(name)
 
 
 def _is_key(v: Any) -> bool:

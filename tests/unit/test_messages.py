@@ -16,6 +16,7 @@ from transport import MalformedMessage
 from transport.messages import (
     ACTIONS,
     Ack,
+    ControlCommand,
     Deliveries,
     Downlink,
     FrameIn,
@@ -207,3 +208,14 @@ def test_inputs_whose_columns_do_not_fit_are_refused(field, value, words):
     with pytest.raises(MalformedMessage) as err:
         decode(raw(plain), Downlink, what="downlink")
     assert words in str(err.value), str(err.value)
+
+
+@pytest.mark.parametrize("kind,what", [(ControlCommand, "control command"), (Uplink, "uplink"),
+                                       (JoinRequest, "join request")])
+def test_a_message_nested_200000_levels_deep_is_malformed_not_a_recursion_error(kind, what):
+    deep = b"\x82\xa3cmd\xa3add\xa4args" + b"\x91" * 200_000 + b"\xc0"
+    with pytest.raises(MalformedMessage, match=f"bad {what}: "):
+        decode(deep, kind, what=what)
+    if kind is ControlCommand:  # its args are any value: the decoder goes down the nesting
+        with pytest.raises(MalformedMessage, match="nested too deeply"):
+            decode(deep, kind, what=what)
