@@ -294,7 +294,13 @@ def _main(args) -> int:
 
 def _user_modules_importable(scenario: str | None) -> None:
     """Let ``use = "module:Class"`` find modules beside the scenario file and in the current directory."""
-    for folder in ([str(Path(scenario).resolve().parent)] if scenario else []) + [str(Path.cwd())]:
+    beside = []
+    if scenario:
+        try:
+            beside = [str(Path(scenario).resolve().parent)]
+        except (OSError, RuntimeError):  # a symlink loop: loading the scenario says so, naming the file
+            pass
+    for folder in beside + [str(Path.cwd())]:
         if folder not in sys.path:
             sys.path.append(folder)
 

@@ -21,10 +21,15 @@ carry: passable, and reported in ``markers``. Any other character is an error na
 
 **A 3-D map** (``type octile3d``) is the same header with ``layers L`` after ``width``, then L blocks
 ``layer Z_LO Z_HI`` followed by H rows, in ascending, contiguous heights; above and below the stack is free.
+
+**Limits** (a map is input, and reaches every host and the trace header): a map file is a regular file of at
+most ``MAX_MAP_BYTES``, and a map (a file's H x W x L, or a generated maze) has at most ``MAX_MAP_CELLS``
+cells, checked before anything of that size is read or allocated.
 """
 
 from __future__ import annotations
 
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +38,8 @@ PASSABLE = set(".GS")
 MARKERS = set("AX")
 BLOCKED = set("@O")
 KNOWN = PASSABLE | MARKERS | BLOCKED | {"T", "W"}
+MAX_MAP_CELLS = 2048 * 2048  # 4x the largest Moving AI benchmark maps (1024 x 1024); 16x the 511 x 511 maze we run
+MAX_MAP_BYTES = 16 * 1024 * 1024  # a map file: its cells, line ends and header fit many times over
 
 
 class MapError(ValueError):
@@ -49,7 +56,16 @@ def read_map(path: str | Path, *, tree_height: float | None = None, cell: float 
     """Read a Moving AI map (``octile``) or a 3-D stack (``octile3d``) into its resolved grid form."""
     path = Path(path)
     try:
-        lines = path.read_text().splitlines()
+        st = path.stat()
+        if not stat.S_ISREG(st.st_mode):  # /dev/zero never ends; a FIFO waits for a writer
+            raise MapError(str(path), "not a regular file")
+        if st.st_size > MAX_MAP_BYTES:
+            raise MapError(str(path), f"{st.st_size:,} bytes, above the {MAX_MAP_BYTES >> 20} MiB a map file may have")
+        with open(path, "rb") as f:
+            data = f.read(MAX_MAP_BYTES + 1)  # a file that grew since, or that stat under-reports, is still bounded
+        if len(data) > MAX_MAP_BYTES:
+            raise MapError(str(path), f"more than the {MAX_MAP_BYTES >> 20} MiB a map file may have")
+        lines = data.decode().splitlines()
     except (OSError, UnicodeDecodeError) as exc:
         raise MapError(str(path), f"cannot read the map ({exc.__class__.__name__}: {exc})") from None
     return parse_map(lines, str(path), tree_height=tree_height, cell=cell, origin=origin)
@@ -81,6 +97,7 @@ def parse_map(lines: list[str], name: str = "<map>", *, tree_height: float | Non
         raise MapError(name, f"type must be 'octile' or 'octile3d', not {kind!r}")
     h, w = number("height"), number("width")
     n_layers = number("layers") if kind == "octile3d" else 1
+    _check_cells(name, h, w, n_layers)
     planes, extents = [], []
     for _ in range(n_layers):
         if kind == "octile3d":
@@ -104,12 +121,19 @@ def parse_map(lines: list[str], name: str = "<map>", *, tree_height: float | Non
         for no, row in rows:
             if len(row) != w:
                 raise MapError(f"{name}:{no}", f"row has {len(row)} characters, the header says width {w}")
-            for col, ch in enumerate(row, start=1):
-                if ch not in KNOWN:
-                    raise MapError(f"{name}:{no}:{col}",
-                                   f"unknown map character {ch!r} (known: {''.join(sorted(KNOWN))})")
+            if not KNOWN.issuperset(row):
+                col, ch = next((col, ch) for col, ch in enumerate(row, start=1) if ch not in KNOWN)
+                raise MapError(f"{name}:{no}:{col}",
+                               f"unknown map character {ch!r} (known: {''.join(sorted(KNOWN))})")
         planes.append([row for _, row in rows])
     return _resolve_planes(planes, extents if kind == "octile3d" else None, tree_height, cell, origin, name)
+
+
+def _check_cells(name: str, h: int, w: int, layers: int = 1) -> None:
+    """Refuse a map of more than ``MAX_MAP_CELLS`` cells, before anything of its size is read or allocated."""
+    if h * w * layers > MAX_MAP_CELLS:
+        shape = f"{h} x {w}" + (f" x {layers} layers" if layers > 1 else "")
+        raise MapError(name, f"{shape} = {h * w * layers:,} cells, above the {MAX_MAP_CELLS:,} a map may have")
 
 
 def _resolve_planes(planes, extents, tree_height, cell, origin, source) -> dict:
@@ -142,9 +166,13 @@ def _resolve_planes(planes, extents, tree_height, cell, origin, source) -> dict:
 
 
 def maze(cols: int, rows: int, seed: int = 0, corridor: int = 2, wall: int = 1) -> list[str]:
-    """A perfect maze (one path between any two cells), drawn by a seeded depth-first search, as map rows."""
-    rng = np.random.default_rng(seed)
+    """A perfect maze (one path between any two cells), drawn by a seeded depth-first search, as map rows.
+
+    MapError if its grid would have more than ``MAX_MAP_CELLS`` cells.
+    """
     step = corridor + wall
+    _check_cells("maze", rows * step + wall, cols * step + wall)
+    rng = np.random.default_rng(seed)
     grid = np.ones((rows * step + wall, cols * step + wall), dtype=bool)  # True: wall
 
     def carve(r, c):

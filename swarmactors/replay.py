@@ -3,7 +3,8 @@
 ``Replay(trace)`` reads a trace file (and the ``result.json`` beside it, when
 there is one, for robot ranges and log lines) and gives the ``Scene`` at any
 tick. It holds no tick record: it keeps each record's byte offset and reads the
-records it needs from the file (a temporary decompressed copy of a zstd trace).
+records it needs from the file (of a zstd trace: a temporary decompressed copy, written as the trace is read
+and checked, so a trace refused by the readers' bounds stops the copy too).
 Scenes are rebuilt from checkpoints taken every ``CHECKPOINT_EVERY`` ticks (at
 most ``CHECKPOINTS_MAX`` of them), so a seek reads at most that many records.
 
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 import bisect
 import json
+import tempfile
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
@@ -24,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from swarmactors.scene import RECENT_TICKS, Scene
-from swarmactors.trace import TraceError, TraceHasher, footer_problem, iter_offsets, plain_copy
+from swarmactors.trace import TraceError, TraceHasher, footer_problem, is_compressed, iter_offsets
 
 CHECKPOINT_EVERY = 64
 CHECKPOINTS_MAX = 128  # a longer trace spaces its checkpoints further apart: the scenes kept stay O(N) in all
@@ -88,13 +90,19 @@ class Replay:
         with a warning in ``note``.
         """
         self.path = Path(trace)
-        stream = plain_copy(self.path)  # TraceError names the file
+        compressed = is_compressed(self.path)  # TraceError names the file
+        try:
+            stream = tempfile.TemporaryFile() if compressed else open(self.path, "rb")
+        except OSError as exc:
+            raise TraceError(f"{self.path}: cannot open: {exc.strerror}") from None
         header = footer = None
         offsets: list[int] = []
         ticks: list[int] = []
         hasher = TraceHasher()
         try:
-            for offset, obj in iter_offsets(self.path, stream):  # TraceError names the file and the offset
+            # TraceError names the file and the offset; a zstd trace is decompressed into ``stream`` as it is read
+            scan = iter_offsets(self.path, tee=stream) if compressed else iter_offsets(self.path, stream)
+            for offset, obj in scan:
                 if header is None:
                     header = obj
                 elif obj.get("end"):

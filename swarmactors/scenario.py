@@ -445,7 +445,10 @@ def _check_space(world: dict, source: str) -> None:
             or not all(type(mz.get(k, 1)) is int and mz.get(k, 1) >= 1 for k in mkeys - {"seed"})):
         raise ScenarioError(source, "world.map.maze", "must be {cols = C, rows = R} with positive integers "
                             "(and seed, corridor = cells per corridor, wall = cells per wall)")
-    rows = maps.maze(mz["cols"], mz["rows"], int(mz.get("seed", 0)), mz.get("corridor", 2), mz.get("wall", 1))
+    try:
+        rows = maps.maze(mz["cols"], mz["rows"], int(mz.get("seed", 0)), mz.get("corridor", 2), mz.get("wall", 1))
+    except maps.MapError as exc:  # more cells than maps.MAX_MAP_CELLS
+        raise ScenarioError(source, "world.map.maze", exc.message) from None
     world["map"] = maps.parse_map(["type octile", f"height {len(rows)}", f"width {len(rows[0])}", "map", *rows],
                                   "maze", tree_height=tree, cell=float(cell), origin=origin)
 

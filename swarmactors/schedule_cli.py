@@ -17,6 +17,7 @@ import contextlib
 import json
 import math
 import os
+import stat
 import sys
 import tomllib
 from pathlib import Path
@@ -26,6 +27,7 @@ from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_OK, EXIT_RUNTIME
 __all__ = ["InputError", "add_parser", "command", "load_instance"]
 
 DEFAULT_TIME_LIMIT = 60.0
+MAX_FILE_BYTES = 1 << 20  # a TASKS.toml at the task bound (protocols.secs.schedule.MAX_TASKS) is ~20 kB
 
 
 class InputError(ValueError):
@@ -250,10 +252,16 @@ _KEYMAP = {"start": "swarm.start", "gamma": "swarm.gamma", "omega": "swarm.omega
 
 def load_instance(path: Path):
     """Read a TASKS.toml into an ``Instance`` and the ``[solver]`` options; raise InputError naming the key."""
-    from protocols.secs.schedule import Instance, InstanceError, Task, check_instance
+    from protocols.secs.schedule import MAX_ROBOTS, MAX_TASKS, Instance, InstanceError, Task, check_instance
 
     src = str(path)
     try:
+        st = Path(path).stat()
+        if not stat.S_ISREG(st.st_mode):
+            raise InputError(src, "file", _MISSING, "not a regular file")
+        if st.st_size > MAX_FILE_BYTES:
+            raise InputError(src, "file", _MISSING, f"{st.st_size:,} bytes, more than the {MAX_FILE_BYTES >> 20} MiB "
+                                                    "a tasks file may have")
         raw = tomllib.loads(Path(path).read_text())
     except OSError as exc:
         raise InputError(src, "file", _MISSING, f"cannot read: {exc.strerror or exc}") from None
@@ -280,6 +288,9 @@ def load_instance(path: Path):
         g = _table(src, where, g, required=True)
         _keys(src, where + ".", g, _GROUP)
         count = _int(src, where + ".count", g.get("count", _MISSING), minimum=1)
+        if len(robots) + count > MAX_ROBOTS:  # before the list is built
+            raise InputError(src, where + ".count", count, f"brings the swarm to {len(robots) + count:,} robots, "
+                                                          f"more than the {MAX_ROBOTS} a schedule may have")
         caps = frozenset(_strings(src, where + ".capabilities", g.get("capabilities", [])))
         robots += [caps] * count
     items = raw.get("tasks", _MISSING)
@@ -287,6 +298,8 @@ def load_instance(path: Path):
         raise InputError(src, "tasks", _MISSING, "missing: give at least one [[tasks]] entry")
     if not isinstance(items, list) or not items:
         raise InputError(src, "tasks", items, "must be a non-empty array of tables [[tasks]]")
+    if len(items) > MAX_TASKS:
+        raise InputError(src, "tasks", _MISSING, f"{len(items):,} tasks, more than the {MAX_TASKS} a schedule may have")
     tasks = []
     for i, t in enumerate(items):
         where = f"tasks[{i}]"

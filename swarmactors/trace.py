@@ -26,6 +26,7 @@ check both, so an edited header or record does not go unnoticed.
 from __future__ import annotations
 
 import hashlib
+import stat
 import time
 from collections.abc import Iterable, Iterator
 from operator import itemgetter
@@ -44,6 +45,12 @@ MODES = ("off", "summary", "full")  # run.trace: what the trace file holds (the 
 SUMMARISED = ("del", "ovh", "drop")  # the per-(frame, receiver) lists a summary trace replaces by counts
 FLUSH_S = 1.0  # the trace file is flushed at least this often (seconds)
 ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"  # a Zstandard frame's first bytes
+# Bounds on what a reader accepts (docs/trace.md, "Limits"): a trace is input, and may be hostile.
+MAX_RECORD_BYTES = 32 << 20  # one header, tick record or footer, as encoded: 25x a record of 10,000 robots
+MAX_RECORD_CONTAINERS = 2_000_000  # lists and maps in one record (each costs ~70 bytes once decoded)
+MAX_RATIO = 2000  # decompressed bytes per compressed byte of a zstd trace (real traces: up to ~300)
+RATIO_FLOOR = 64 << 20  # decompressed bytes always allowed before the ratio applies
+_READ_CHUNK = 1 << 20
 
 
 class TraceError(ValueError):
@@ -284,51 +291,124 @@ def iter_trace(path: str | Path) -> Iterator[dict]:
         yield obj
 
 
-def _open(path: Path):
+class _Inflated:
+    """A zstd trace's decompressed stream, refused once it exceeds ``RATIO_FLOOR + MAX_RATIO`` x the bytes read.
+
+    ``tee``: a file that receives every decompressed byte read (the replay's seekable copy), so the copy
+    grows no faster than the checked stream.
+    """
+
+    def __init__(self, path: Path, raw, tee=None):
+        import zstandard
+
+        self.path, self.raw, self.tee = path, raw, tee
+        self.reader = zstandard.ZstdDecompressor().stream_reader(raw, read_across_frames=True, closefd=True)
+        self.out = 0
+
+    def read(self, n: int = -1) -> bytes:
+        data = self.reader.read(_READ_CHUNK if n < 0 or n > _READ_CHUNK else n)
+        self.out += len(data)
+        packed = self.raw.tell()
+        if self.out > RATIO_FLOOR + MAX_RATIO * packed:
+            raise TraceError(f"{self.path}: decompresses to more than {MAX_RATIO} times its size "
+                             f"({self.out / 1e6:.0f} MB from the first {packed / 1e3:.0f} kB): "
+                             "refused as a decompression bomb")
+        if self.tee is not None:
+            self.tee.write(data)
+        return data
+
+    def close(self) -> None:
+        self.reader.close()
+
+
+def is_compressed(path: str | Path) -> bool:
+    """Whether the trace at ``path`` is a zstd stream; TraceError if it is not a non-empty regular file."""
+    f, size = _open(Path(path))
+    f.close()
+    return size is None
+
+
+def _open(path: Path, tee=None):
     """The trace file opened for reading, and its size (None: a compressed stream, of unknown length)."""
     try:
+        st = path.stat()
+        if not stat.S_ISREG(st.st_mode):  # /dev/zero, a FIFO: no end, or no data until someone writes
+            raise TraceError(f"{path}: not a regular file")
         f = open(path, "rb")
     except OSError as exc:
         raise TraceError(f"{path}: cannot open: {exc.strerror}") from None
-    size = path.stat().st_size
-    if size == 0:
+    if st.st_size == 0:
         f.close()
         raise TraceError(f"{path}: empty file at byte offset 0 (the run wrote no trace data)")
     if f.read(4) == ZSTD_MAGIC:  # a compressed trace: offsets are in the decompressed stream
-        import zstandard
-
         f.seek(0)
-        return zstandard.ZstdDecompressor().stream_reader(f, read_across_frames=True, closefd=True), None
+        return _Inflated(path, f, tee), None
     f.seek(0)
-    return f, size
+    return f, st.st_size
 
 
-def iter_offsets(path: str | Path, stream=None, start: int = 0) -> Iterator[tuple[int, dict]]:
+class _Budget:
+    """Counts the lists and maps msgpack builds for one record (its ``list_hook``/``object_hook``)."""
+
+    def __init__(self) -> None:
+        self.left = MAX_RECORD_CONTAINERS
+
+    def take(self, obj):
+        self.left -= 1
+        if self.left < 0:
+            raise _TooManyContainers
+        return obj
+
+
+class _TooManyContainers(Exception):
+    pass
+
+
+def iter_offsets(path: str | Path, stream=None, start: int = 0, tee=None) -> Iterator[tuple[int, dict]]:
     """Yield ``(byte offset, object)`` for the header, tick records and footer of a trace, checking each.
 
     Offsets are in the msgpack stream (the decompressed one for a zstd trace). ``stream``: read this
-    seekable plain msgpack stream (``plain_copy``) from byte ``start`` instead of opening ``path``; the header
-    is then only checked when ``start`` is 0.
+    seekable plain msgpack stream (``Replay``'s copy) from byte ``start`` instead of opening ``path``; the
+    header is then only checked when ``start`` is 0. ``tee``: a file that receives a zstd trace's
+    decompressed bytes as they are read. A record beyond ``MAX_RECORD_BYTES`` or ``MAX_RECORD_CONTAINERS``, and
+    a zstd stream beyond ``MAX_RATIO``, are a TraceError naming the file and the bound, before the memory or
+    disk it would take is used.
     """
     path = Path(path)
     if stream is None:
-        f, size = _open(path)
+        f, size = _open(path, tee)
     else:
         stream.seek(0, 2)
         f, size = None, stream.tell()
         stream.seek(start)
+    budget = _Budget()
     try:
         unpacker = msgpack.Unpacker(f if f is not None else stream, raw=False, strict_map_key=False,
-                                    max_buffer_size=1 << 30)
+                                    max_buffer_size=MAX_RECORD_BYTES, list_hook=budget.take,
+                                    object_hook=budget.take)
         first = start == 0
         offset = start
         while True:
+            budget.left = MAX_RECORD_CONTAINERS
             try:
                 obj = unpacker.unpack()
             except msgpack.OutOfData:
                 if (size is not None and offset < size) or (size is None and start + unpacker.tell() > offset):
                     raise TraceError(f"{path}: truncated record at byte offset {offset}") from None
                 return
+            except TraceError:
+                raise
+            except msgpack.BufferFull:
+                raise TraceError(f"{path}: the record at byte offset {offset} is larger than "
+                                 f"{MAX_RECORD_BYTES >> 20} MiB, the bound on one record") from None
+            except _TooManyContainers:
+                raise TraceError(f"{path}: the record at byte offset {offset} holds more than "
+                                 f"{MAX_RECORD_CONTAINERS:,} lists and maps, the bound on one record") from None
+            except ValueError as exc:
+                if "exceeds max_" in str(exc):  # a string, list or map longer than a record may be
+                    raise TraceError(f"{path}: the record at byte offset {offset} is larger than "
+                                     f"{MAX_RECORD_BYTES >> 20} MiB, the bound on one record ({exc})") from None
+                raise TraceError(f"{path}: corrupt data at byte offset {offset}: {exc}") from None
             except Exception as exc:
                 raise TraceError(f"{path}: corrupt data at byte offset {offset}: {exc}") from None
             if not isinstance(obj, dict):
@@ -352,25 +432,6 @@ def iter_offsets(path: str | Path, stream=None, start: int = 0) -> Iterator[tupl
     finally:
         if f is not None:
             f.close()
-
-
-def plain_copy(path: str | Path):
-    """A seekable binary file of the trace's msgpack stream: the file itself, or a decompressed temporary copy.
-
-    What needs to go back to a tick (the replay's slider) seeks in it by the offsets of ``iter_offsets``
-    instead of keeping the records in memory. The caller closes it (a temporary copy is then deleted).
-    """
-    import shutil
-    import tempfile
-
-    f, size = _open(Path(path))
-    if size is not None:
-        return f
-    with f:
-        copy = tempfile.TemporaryFile()
-        shutil.copyfileobj(f, copy, 1 << 20)
-    copy.seek(0)
-    return copy
 
 
 def hash_problem(header: dict, records: Iterable[dict], footer: dict | None) -> str | None:

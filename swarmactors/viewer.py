@@ -17,6 +17,10 @@ start of a tick and records it in the trace like a scenario event. Speed is
 paced with ``run_to``, which the world does not record: pacing never changes
 what happens in a lockstep run.
 
+Every request but the page and its static files needs the server's per-run token (``?token=`` in the URL
+it prints, or the ``X-Swarmactors-Token`` header), and every request's ``Host`` must name this machine
+(``LOCAL_NAMES``, an IP address, or the host the server was bound to): see "Security" in docs/viewer.md.
+
 Each page has its own sending task that sends the newest frame at most
 ``MAX_FPS`` times a second and skips the ones it had no time for; a page that
 stalls or disconnects costs the run nothing.
@@ -26,9 +30,13 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import hmac
+import ipaddress
 import json
 import logging
+import secrets
 import signal
+import socket
 import sys
 import time
 from collections.abc import Callable
@@ -53,6 +61,8 @@ CONTROL_TIMEOUT_S = 5.0
 FIND_TIMEOUT_S = 2.0
 WORLD_ACTIONS = tuple(a for a in ACTIONS if a != "add")  # what the page may ask of the world
 DEFAULT_RATE = 10.0  # ticks per second when ▶ is pressed (None: as fast as the world goes)
+TOKEN_HEADER = "X-Swarmactors-Token"
+LOCAL_NAMES = ("localhost",)  # host names always accepted in a Host header, beside IP addresses
 
 
 class ViewerError(RuntimeError):
@@ -391,7 +401,10 @@ class ViewerServer:
         self._cache: tuple[int, str] | None = None
         self._runner: web.AppRunner | None = None
         self._pages: set[web.WebSocketResponse] = set()
-        self.url = ""
+        self.token = secrets.token_urlsafe(24)  # per server, so per run: 192 random bits
+        self.base = ""  # http://HOST:PORT/
+        self.url = ""  # the base with ?token=…: the address to open
+        self._names: frozenset[str] = frozenset(LOCAL_NAMES)
 
     # -- source switching ---------------------------------------------------
     async def set_source(self, source: Source) -> None:
@@ -413,7 +426,9 @@ class ViewerServer:
 
     # -- lifecycle ------------------------------------------------------------
     async def start(self) -> str:
-        app = web.Application()
+        self._names = frozenset({*LOCAL_NAMES, self.host.strip("[]").lower(), socket.gethostname().lower(),
+                                 socket.getfqdn().lower()} - {""})
+        app = web.Application(middlewares=[self._guard])
         app.router.add_get("/", self._index)
         app.router.add_get("/favicon.ico", self._no_icon)
         app.router.add_get("/static/{name}", self._static)
@@ -433,7 +448,8 @@ class ViewerServer:
             raise ViewerError(f"cannot serve the viewer on {self.host}:{self.port}: {exc.strerror or exc}") from None
         port = self._runner.addresses[0][1]  # the real port when 0 was asked
         host = self.host if self.host not in ("0.0.0.0", "::", "") else "127.0.0.1"
-        self.url = f"http://{host}:{port}/"
+        self.base = f"http://{_url_host(host)}:{port}/"
+        self.url = f"{self.base}?token={self.token}"
         await self.source.start()
         return self.url
 
@@ -444,6 +460,41 @@ class ViewerServer:
                              return_exceptions=True)
         if self._runner is not None:
             await self._runner.cleanup()
+
+    # -- access ------------------------------------------------------------------
+    def host_allowed(self, host_header: str) -> bool:
+        """A ``Host`` that names this machine: an IP address, ``localhost``, the bound host or this host's name.
+
+        A browser sends the name it resolved, so a page of evil.example whose name was rebound to 127.0.0.1
+        sends ``Host: evil.example`` and is refused (DNS rebinding). The port is not checked: an SSH tunnel
+        (``ssh -L 9000:localhost:8050``) legitimately reaches the server on another port.
+        """
+        name = _host_name(host_header)
+        if not name:
+            return False
+        try:
+            ipaddress.ip_address(name)
+            return True
+        except ValueError:
+            pass
+        return name in self._names
+
+    def token_ok(self, request: web.Request) -> bool:
+        """The request carries this server's token (header or ``?token=``), compared in constant time."""
+        given = request.headers.get(TOKEN_HEADER) or request.query.get("token") or ""
+        return hmac.compare_digest(given.encode(), self.token.encode())
+
+    @web.middleware
+    async def _guard(self, request: web.Request, handler):
+        """Host allowlist for every request; the token for everything but the page and its static files."""
+        if not self.host_allowed(request.headers.get("Host", "")):
+            return web.Response(status=403, text=f"Host {request.headers.get('Host', '')!r} is not this "
+                                                 "machine: refused (open the address the viewer printed)\n")
+        page_only = request.match_info.handler in (self._index, self._no_icon, self._static)  # no run data
+        if not page_only and not self.token_ok(request):
+            return web.Response(status=403, text="this viewer needs its token: open the address it printed "
+                                                 "(…/?token=…) or send the X-Swarmactors-Token header\n")
+        return await handler(request)
 
     # -- handlers ----------------------------------------------------------------
     async def _index(self, request: web.Request) -> web.Response:
@@ -540,6 +591,22 @@ def _same_origin(request: web.Request) -> None:
     origin = request.headers.get("Origin")
     if origin and urlsplit(origin).netloc != request.host:
         raise web.HTTPForbidden(text=f"origin {origin} may not control this viewer")
+
+
+def _host_name(host_header: str) -> str:
+    """The host part of a ``Host`` header, lower case, without brackets or port ('' if malformed)."""
+    h = host_header.strip().lower()
+    if h.startswith("["):
+        end = h.find("]")
+        name, rest = h[1:end], h[end + 1:]
+        ok = end > 0 and (not rest or (rest[0] == ":" and rest[1:].isdigit()))
+        return name if ok else ""
+    name, _, port = h.partition(":")
+    return name if not port or port.isdigit() else ""
+
+
+def _url_host(host: str) -> str:
+    return f"[{host}]" if ":" in host and not host.startswith("[") else host
 
 
 def _static_text(name: str) -> str:
@@ -713,5 +780,5 @@ async def serve_replay(trace: Path, host: str, port: int, announce: Callable[[st
 
 def warn_if_exposed(host: str) -> None:
     if host not in ("127.0.0.1", "localhost", "::1"):
-        print(f"warning: the viewer on {host} lets anyone who reaches it pause the run and kill robots",
-              file=sys.stderr)
+        print(f"warning: the viewer on {host} is reachable from other machines over plain HTTP: anyone who "
+              "sees its address with the token can pause the run and kill robots", file=sys.stderr)

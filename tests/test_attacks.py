@@ -9,9 +9,13 @@ undisturbed run.
 from __future__ import annotations
 
 import asyncio
+import functools
 import inspect
+import json
 import math
 import os
+import re
+import signal
 import stat
 import subprocess
 import sys
@@ -33,6 +37,9 @@ from swarmactors.launcher import new_run_id, private_endpoints, run_world
 from swarmactors.launcher import run as launcher_run
 from swarmactors.plugins import BEHAVIORS, RefusedBehavior, UnknownRule, allowed, available, resolve, resolve_behavior
 from swarmactors.scenario import ScenarioError, resolve_scenario, world_spec
+from swarmactors.scene import Scene
+from swarmactors.trace import TraceHasher
+from swarmactors.viewer import Source, ViewerServer
 from test_bad_input import FLOOD_RAW, PAUSE_AT, FakeLink, FakeQuery, WireRun, _get, _HostThread
 from transport import Endpoints, Keys, Link, host_loss_s, make_config, pack, seal, unpack
 from transport.messages import (
@@ -768,3 +775,446 @@ def test_run_with_host_processes_over_the_unix_socket(tmp_path):
     assert {r["host"] for r in result.robots.values()} == {"h0", "h1"}
     assert result["trace_hash"] == tcp["trace_hash"]
     assert all(r["beacon"]["heard"] > 0 for r in result.robots.values())
+
+
+# ------------------------------------------------------------------ 9. the viewer's HTTP API
+def write_small_trace(path: Path, records: list[dict] | None = None, compress: bool = False) -> Path:
+    """A valid trace by hand: header, ``records`` (default: three ticks of two robots) and a footer with the hash."""
+    records = records if records is not None else [{"t": t, "pos": [[0, 0.0, 0.0], [1, 1.0, float(t)]]}
+                                                   for t in range(3)]
+    hasher = TraceHasher()
+    for rec in records:
+        hasher.update(rec)
+    objs = [{"trace": "swarmactors", "version": 2, "run_id": "x", "clock": "lockstep", "seed": 1, "scenario": {}},
+            *records, {"end": True, "ticks": len(records), "trace_hash": hasher.hexdigest()}]
+    data = b"".join(pack(o) for o in objs)
+    if compress:
+        import zstandard
+
+        data = zstandard.ZstdCompressor().compress(data)
+    path.write_bytes(data)
+    return path
+
+
+class _Recorder(Source):
+    """A viewer source that obeys every command and remembers it: what an attacker's request reached."""
+
+    def __init__(self):
+        self.scene = Scene(mode="live")
+        self.obeyed: list[dict] = []
+
+    async def command(self, msg: dict) -> dict:
+        self.obeyed.append(msg)
+        return {"ok": True}
+
+
+async def _http(port: int, method: str, path: str, headers: dict, body: bytes = b"") -> tuple[int, str]:
+    """One raw HTTP/1.1 request, as another local process would send it (no browser, headers as given)."""
+    reader, writer = await asyncio.open_connection("127.0.0.1", port)
+    lines = [f"{method} {path} HTTP/1.1", *(f"{k}: {v}" for k, v in headers.items()),
+             f"Content-Length: {len(body)}", "Connection: close", "", ""]
+    writer.write("\r\n".join(lines).encode() + body)
+    await writer.drain()
+    answer = (await asyncio.wait_for(reader.read(), 10)).decode()
+    writer.close()
+    status = int(answer.split(" ", 2)[1])
+    return status, answer.split("\r\n\r\n", 1)[1]
+
+
+async def test_viewer_commands_need_the_token_and_a_local_host_name():
+    """Another local process (no Origin) and a DNS-rebound page (Host: evil.example) cannot command the viewer."""
+    source = _Recorder()
+    server = ViewerServer("127.0.0.1", 0, source)
+    url = await server.start()
+    port = int(server.base.rsplit(":", 1)[1].rstrip("/"))
+    assert url == f"{server.base}?token={server.token}" and len(server.token) >= 32
+    here = {"Host": f"127.0.0.1:{port}", "Content-Type": "application/json"}
+    stop = json.dumps({"cmd": "stop", "args": True}).encode()
+    try:
+        for cmd in ({"cmd": "stop", "args": True}, {"cmd": "loss", "args": 0.9}, {"cmd": "kill", "id": 1}):
+            status, body = await _http(port, "POST", "/api/command", here, json.dumps(cmd).encode())
+            assert status == 403 and "token" in body
+        wrong = server.token[:-1] + ("A" if server.token[-1] != "A" else "B")  # same length, one character off
+        status, _ = await _http(port, "POST", "/api/command", {**here, "X-Swarmactors-Token": wrong}, stop)
+        assert status == 403
+        status, _ = await _http(port, "POST", f"/api/command?token={wrong}", here, stop)
+        assert status == 403
+        # DNS rebinding: the browser sends the attacker's name as Host and as Origin, and cannot know the token
+        evil = {"Host": f"evil.example:{port}", "Origin": f"http://evil.example:{port}",
+                "Content-Type": "application/json"}
+        status, body = await _http(port, "POST", "/api/command", evil, stop)
+        assert status == 403 and "evil.example" in body
+        status, _ = await _http(port, "POST", "/api/command", {**evil, "X-Swarmactors-Token": server.token}, stop)
+        assert status == 403  # even with the token: the Host is checked first
+        status, _ = await _http(port, "GET", "/api/frame", {**evil, "X-Swarmactors-Token": server.token})
+        assert status == 403  # and reading the run is refused too
+        # read-only data needs the token as well; the page itself (no run data) does not
+        for path in ("/api/frame", "/api/space", "/api/robot/0", "/api/events.toml", "/ws"):
+            assert (await _http(port, "GET", path, here))[0] == 403, path
+        assert (await _http(port, "GET", "/", here))[0] == 200
+        assert (await _http(port, "GET", "/static/viewer.js", {"Host": f"localhost:{port}"}))[0] == 200
+        assert source.obeyed == []
+        # the owner, with the printed token (header, or ?token= as the page's WebSocket sends it)
+        status, body = await _http(port, "POST", "/api/command", {**here, "X-Swarmactors-Token": server.token},
+                                   stop)
+        assert status == 200 and json.loads(body) == {"ok": True}
+        status, _ = await _http(port, "GET", f"/api/frame?token={server.token}", {"Host": f"[::1]:{port}"})
+        assert status == 200
+        assert source.obeyed == [{"cmd": "stop", "args": True}]
+    finally:
+        await server.close()
+
+
+@pytest.mark.parametrize("header", ["evil.example", "localhost.evil.example:80", "127.0.0.1:x", "[::1", "", "::1"])
+def test_viewer_host_allowlist_refuses_other_names(header):
+    server = ViewerServer("127.0.0.1", 0)
+    assert not server.host_allowed(header)
+
+
+@pytest.mark.parametrize("header", ["127.0.0.1:8050", "localhost:9000", "[::1]:8050", "LOCALHOST", "10.0.0.5:8050"])
+def test_viewer_host_allowlist_admits_this_machine(header):
+    server = ViewerServer("127.0.0.1", 0)
+    assert server.host_allowed(header)
+
+
+def test_replay_viewer_prints_its_token_and_refuses_commands_without_it(tmp_path):
+    """``swarmactors replay TRACE --view`` in its own process: the address it prints carries the token."""
+    trace = tmp_path / "trace.msgpack"
+    write_small_trace(trace)
+    log = tmp_path / "view.log"
+    proc = subprocess.Popen([sys.executable, "-m", "swarmactors", "replay", str(trace), "--port", "0"],
+                            stdout=subprocess.DEVNULL, stderr=open(log, "w"))
+    try:
+        deadline = time.monotonic() + 30
+        while not (m := re.search(r"viewer: (http://127\.0\.0\.1:(\d+)/)\?token=([\w-]+)", log.read_text())):
+            assert proc.poll() is None and time.monotonic() < deadline, log.read_text()
+            time.sleep(0.05)
+        base, port, token = m.group(1), int(m.group(2)), m.group(3)
+        seek = json.dumps({"cmd": "seek", "t": 1}).encode()
+        here = {"Host": f"127.0.0.1:{port}", "Content-Type": "application/json"}
+        status, _ = asyncio.run(_http(port, "POST", "/api/command", here, seek))
+        assert status == 403
+        status, body = asyncio.run(_http(port, "POST", "/api/command", {**here, "X-Swarmactors-Token": token}, seek))
+        assert status == 200 and json.loads(body) == {"ok": True, "t": 1}, base
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=30)
+
+
+# ------------------------------------------------------------------ 10. trace bombs
+_PEAK_RSS = """import resource, subprocess, sys, time
+start = time.monotonic()
+p = subprocess.run(sys.argv[1:], capture_output=True, text=True, timeout=120)
+print(p.returncode, time.monotonic() - start, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024)
+print(p.stderr, end="")
+"""
+
+
+def _measured(args: list[str], cwd: Path) -> tuple[int, float, int, str]:
+    """Run ``swarmactors ARGS`` under a fresh parent: (exit code, seconds, peak resident bytes, stderr)."""
+    out = subprocess.run([sys.executable, "-c", _PEAK_RSS, sys.executable, "-m", "swarmactors", *args],
+                         capture_output=True, text=True, timeout=180, cwd=cwd).stdout
+    first, _, stderr = out.partition("\n")
+    code, seconds, rss = first.split()
+    return int(code), float(seconds), int(rss), stderr
+
+
+@functools.cache
+def _zero_frame(n: int) -> bytes:
+    import zstandard
+
+    return zstandard.ZstdCompressor(level=19).compress(bytes(n))
+
+
+def _zstd_frames(data_before: bytes, zeros: int) -> bytes:
+    """``data_before`` then ``zeros`` NUL bytes, as concatenated zstd frames (64 MiB of zeros is ~2 kB)."""
+    import zstandard
+
+    whole, rest = divmod(zeros, 64 << 20)
+    return (zstandard.ZstdCompressor().compress(data_before) + _zero_frame(64 << 20) * whole
+            + (_zero_frame(rest) if rest else b""))
+
+
+@pytest.fixture(scope="module")
+def trace_bomb(tmp_path_factory) -> Path:
+    """A ~100 kB zstd trace: a header, then three tick records of 1 GiB each (a status string of NUL bytes)."""
+    path = tmp_path_factory.mktemp("bomb") / "trace.msgpack"
+    head = pack({"trace": "swarmactors", "version": 2, "run_id": "x", "clock": "lockstep", "seed": 1,
+                 "scenario": {}})
+    parts = [b""]
+    for t in range(3):
+        prefix = pack({"t": t, "status": {0: {"s": "x"}}})[:-2]  # the map up to the string's value
+        parts.append(_zstd_frames((head if t == 0 else b"") + prefix + b"\xdb" + (1 << 30).to_bytes(4, "big"),
+                                  1 << 30))
+    path.write_bytes(b"".join(parts))
+    assert path.stat().st_size < 200_000
+    return path
+
+
+@pytest.mark.parametrize("command", ["events", "view", "export"])
+def test_trace_bomb_is_refused_in_seconds_without_the_memory(trace_bomb, tmp_path, command):
+    """``replay --events``, ``replay`` (the viewer) and ``export`` on 3 GiB in 100 kB: exit 2, the bound named."""
+    args = {"events": ["replay", str(trace_bomb), "--events"], "view": ["replay", str(trace_bomb), "--port", "0"],
+            "export": ["export", str(trace_bomb), "--out", str(tmp_path)]}[command]
+    code, seconds, rss, stderr = _measured(args, tmp_path)
+    assert code == 2, stderr
+    assert str(trace_bomb) in stderr and "32 MiB, the bound on one record" in stderr, stderr
+    assert len(stderr.strip().splitlines()) == 1, stderr
+    assert seconds < 20, seconds
+    assert rss < 400 << 20, rss / 2**20  # the bomb's records are never built
+    assert not list(tmp_path.glob("*.csv"))
+
+
+def test_trace_record_of_tiny_containers_is_refused_by_count(tmp_path):
+    """30 MiB of empty maps fits the byte bound but would take ~2.4 GB as dicts: refused by the container bound."""
+    from swarmactors.trace import MAX_RECORD_CONTAINERS, TraceError, iter_trace
+
+    n = 30 << 20
+    head = pack({"trace": "swarmactors", "version": 2, "run_id": "x", "clock": "lockstep", "seed": 1})
+    rec = pack({"t": 0, "status": {0: {"s": "x"}}})[:-2] + b"\xdd" + n.to_bytes(4, "big") + b"\x80" * n
+    path = tmp_path / "trace.msgpack"
+    path.write_bytes(head + rec)
+    started = time.monotonic()
+    with pytest.raises(TraceError, match=f"{path}: the record at byte offset {len(head)} holds more than "
+                                         f"{MAX_RECORD_CONTAINERS:,} lists and maps"):
+        list(iter_trace(path))
+    assert time.monotonic() - started < 10
+
+
+def test_zstd_trace_beyond_the_decompression_ratio_is_refused(tmp_path):
+    """Valid 8 MiB records, each ~300 bytes compressed: refused once the stream passes the ratio bound."""
+    from swarmactors.replay import Replay
+    from swarmactors.trace import MAX_RATIO, RATIO_FLOOR, TraceError, iter_trace
+
+    head = pack({"trace": "swarmactors", "version": 2, "run_id": "x", "clock": "lockstep", "seed": 1})
+    frames = []
+    for t in range(40):
+        prefix = pack({"t": t, "status": {0: {"s": "x"}}})[:-2] + b"\xdb" + (8 << 20).to_bytes(4, "big")
+        frames.append(_zstd_frames((head if t == 0 else b"") + prefix, 8 << 20))
+    path = tmp_path / "trace.msgpack"
+    path.write_bytes(b"".join(frames))
+    assert (RATIO_FLOOR + MAX_RATIO * path.stat().st_size) < 40 * (8 << 20)  # the stream is beyond the bound
+    started = time.monotonic()
+    with pytest.raises(TraceError, match=f"{path}: decompresses to more than {MAX_RATIO} times its size"):
+        list(iter_trace(path))
+    with pytest.raises(TraceError, match="decompression bomb"):
+        Replay(path)
+    assert time.monotonic() - started < 20
+
+
+@pytest.mark.parametrize("special", ["/dev/zero", "fifo"])
+def test_trace_that_is_not_a_regular_file_is_refused(tmp_path, special):
+    from swarmactors.replay import Replay
+    from swarmactors.trace import TraceError, iter_trace
+
+    path = Path(special)
+    if special == "fifo":
+        path = tmp_path / "trace.msgpack"
+        os.mkfifo(path)  # opening it for reading would wait for a writer
+    for read in (lambda: list(iter_trace(path)), lambda: Replay(path)):
+        with pytest.raises(TraceError, match=f"{path}: not a regular file"):
+            read()
+
+
+def test_a_real_zstd_trace_still_replays(tmp_path):
+    """The bounds leave ordinary traces alone: a compressed trace replays, its copy written while it is checked."""
+    from swarmactors.replay import Replay
+
+    path = write_small_trace(tmp_path / "trace.msgpack", compress=True)
+    replay = Replay(path)
+    assert replay.first == 0 and replay.last == 2 and replay.note is None
+    assert replay.scene_at(1).t == 1
+    replay.records.close()
+
+
+# ------------------------------------------------------------------ 11. map bombs
+_MAP_SCENARIO = """[run]
+name = "map-bomb"
+ticks = 3
+
+[world]
+map = {map}
+
+[[robots]]
+count = 2
+placement = "line"
+behaviors = [{{ use = "beacon" }}]
+"""
+
+
+def _map_scenario(folder: Path, map_value: str) -> Path:
+    path = folder / "scenario.toml"
+    path.write_text(_MAP_SCENARIO.format(map=map_value))
+    return path
+
+
+def _bad_run(args: list[str], capsys) -> tuple[int, str, float]:
+    from swarmactors.cli import main
+
+    started = time.monotonic()
+    code = main(args)
+    return code, capsys.readouterr().err, time.monotonic() - started
+
+
+@pytest.mark.parametrize("case", ["dev-zero", "fifo", "huge-maze", "huge-file-header", "too-many-bytes",
+                                  "map-symlink-loop"])
+def test_map_bomb_is_refused_in_seconds_naming_file_and_key(tmp_path, capsys, case):
+    """``run`` with a map that never ends, waits forever, or would not fit in memory: exit 2 within seconds."""
+    from swarmactors.maps import MAX_MAP_BYTES, MAX_MAP_CELLS
+
+    key, value, names = "world.map.file", None, None
+    if case == "dev-zero":
+        value, names = '"/dev/zero"', ["/dev/zero", "not a regular file"]
+    elif case == "fifo":
+        os.mkfifo(tmp_path / "fifo.map")
+        value, names = '"fifo.map"', ["fifo.map", "not a regular file"]
+    elif case == "huge-maze":
+        key, value = "world.map.maze", "{ maze = { cols = 100000, rows = 100000 } }"
+        names = ["300001 x 300001", f"{MAX_MAP_CELLS:,}"]
+    elif case == "huge-file-header":
+        (tmp_path / "big.map").write_text("type octile\nheight 100000\nwidth 100000\nmap\n........\n")
+        value, names = '"big.map"', ["big.map", "100000 x 100000", f"{MAX_MAP_CELLS:,}"]
+    elif case == "too-many-bytes":
+        with open(tmp_path / "long.map", "wb") as f:  # sparse: 17 MiB on paper, nothing on disk
+            f.truncate(MAX_MAP_BYTES + (1 << 20))
+        value, names = '"long.map"', ["long.map", f"{MAX_MAP_BYTES >> 20} MiB"]
+    else:
+        (tmp_path / "a.map").symlink_to(tmp_path / "b.map")
+        (tmp_path / "b.map").symlink_to(tmp_path / "a.map")
+        value, names = '"a.map"', ["a.map", "Too many levels of symbolic links"]
+    scenario = _map_scenario(tmp_path, value)
+    code, err, seconds = _bad_run(["run", str(scenario), "--out", str(tmp_path / "out"), "--quiet"], capsys)
+    assert code == 2, err
+    assert len(err.strip().splitlines()) == 1, err
+    assert f"{scenario}: {key}:" in err and all(n in err for n in names), err
+    assert seconds < 10, seconds
+    assert not (tmp_path / "out").exists()
+
+
+def test_scenario_that_is_a_symlink_loop_is_refused_naming_it(tmp_path, capsys):
+    (tmp_path / "a.toml").symlink_to(tmp_path / "b.toml")
+    (tmp_path / "b.toml").symlink_to(tmp_path / "a.toml")
+    code, err, _ = _bad_run(["run", str(tmp_path / "a.toml"), "--quiet"], capsys)
+    assert code == 2, err
+    assert err.startswith(f"error: {tmp_path / 'a.toml'}:") and "symbolic links" in err, err
+    assert "RuntimeError" not in err
+
+
+def test_map_limits_are_checked_before_reading_or_allocating():
+    """Pure rules of swarmactors/maps.py: cells before rows, and a maze's grid before it is built."""
+    from swarmactors.maps import MAX_MAP_CELLS, MapError, maze, parse_map
+
+    side = int(MAX_MAP_CELLS ** 0.5)
+    with pytest.raises(MapError, match="x 3 layers"):
+        parse_map(["type octile3d", f"height {side}", f"width {side}", "layers 3"], "m")
+    with pytest.raises(MapError, match=f"above the {MAX_MAP_CELLS:,}"):
+        maze(10**6, 10**6)
+    started = time.monotonic()
+    with pytest.raises(MapError, match="unknown map character"):  # rows are checked a row at a time, not per cell
+        parse_map(["type octile", "height 1000", "width 2000", "map", *(["." * 2000] * 999), "." * 1999 + "?"])
+    assert time.monotonic() - started < 5
+    rows = maze(20, 10, seed=1)
+    assert len(rows) == 10 * 3 + 1 and len(rows[0]) == 20 * 3 + 1  # below the bound: as before
+
+
+# ------------------------------------------------------------------ 12. swarmactors schedule
+_TASKS_HEAD = '[arena]\nx = [0.0, 100.0]\ny = [0.0, 100.0]\n[swarm]\nstart = [1.0, 1.0]\n[[robots]]\ncount = {count}\n'
+
+
+def _tasks_file(folder: Path, count: int = 20, chain: int = 1) -> Path:
+    """A TASKS.toml: ``count`` robots and ``chain`` tasks, each after the one before (a priority chain)."""
+    text = _TASKS_HEAD.format(count=count)
+    for i in range(chain):
+        text += (f'[[tasks]]\nid = "t{i}"\nposition = [{1 + (i * 7) % 98}.0, {1 + (i * 13) % 98}.0]\n'
+                 + (f'after = ["t{i - 1}"]\n' if i else ""))
+    path = folder / f"tasks-{count}-{chain}.toml"
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize(("count", "chain", "key", "bound"), [
+    (300_000_000, 1, "robots[0].count = 300000000",
+     "brings the swarm to 300,000,000 robots, more than the 1000 a schedule may have"),
+    (10**12, 1, "robots[0].count = 1000000000000",
+     "brings the swarm to 1,000,000,000,000 robots, more than the 1000 a schedule may have"),
+    (20, 3000, "tasks", "3,000 tasks, more than the 100 a schedule may have"),
+], ids=["count-3e8", "count-1e12", "3000-chained-tasks"])
+def test_schedule_instance_beyond_the_bounds_is_refused_before_the_model(tmp_path, capsys, count, chain, key, bound):
+    """The campaign's instances (23 GB, 8.6 GB, MemoryError): exit 2 at once, naming the key and the bound."""
+    path = _tasks_file(tmp_path, count, chain)
+    code, err, seconds = _bad_run(["schedule", str(path), "--time-limit", "20", "--out", str(tmp_path / "o")], capsys)
+    assert code == 2, err
+    assert err == f"error: {path}: {key}: {bound}\n", err
+    assert seconds < 5 and not (tmp_path / "o").exists()
+
+
+def test_schedule_model_too_large_for_its_tasks_and_slots_is_refused():
+    from protocols.secs.schedule import MAX_VARIABLES, Instance, InstanceError, Task, check_instance
+
+    caps = [frozenset({f"c{i}", f"d{j}"}) for i in range(30) for j in range(30)]  # 900 capability sets
+    tasks = tuple(Task(f"t{i}", (1.0, 1.0), capabilities=frozenset({f"c{i % 30}"})) for i in range(100))
+    inst = Instance(((0.0, 10.0), (0.0, 10.0)), (1.0, 1.0), tuple(caps), tasks)
+    with pytest.raises(InstanceError, match=f"more than {MAX_VARIABLES:,}: give fewer tasks"):
+        check_instance(inst)
+
+
+def test_schedule_time_limit_covers_building_the_model():
+    """A limit that runs out while the 100-task model is built: no solve, the message says what ran out."""
+    from protocols.secs import schedule as tsc
+    from swarmactors.schedule_cli import load_instance
+
+    inst, _ = load_instance(_chain_instance_file())
+    started = time.monotonic()
+    sched = tsc.solve_tctm(inst, 0.01)
+    assert sched.status == "no_solution" and not sched.solved
+    assert "ran out while the model was being built" in sched.message
+    assert time.monotonic() - started < 2
+
+
+@functools.cache
+def _chain_instance_file() -> Path:
+    import tempfile
+
+    return _tasks_file(Path(tempfile.mkdtemp(prefix="tsc-chain-")), 20, 100)
+
+
+def test_schedule_solver_that_overruns_its_limit_is_stopped(tmp_path, capsys):
+    """HiGHS's presolve of a 100-task priority chain ignores a 2 s limit for tens of seconds: stopped, exit 3."""
+    from protocols.secs.schedule import OVERRUN_S, OVERRUN_SHARE
+
+    limit = 2.0
+    code, err, seconds = _bad_run(["schedule", str(_chain_instance_file()), "--time-limit", str(limit), "--model",
+                                   "tctm", "--out", str(tmp_path / "o")], capsys)
+    assert code == 3, err
+    assert err.startswith(f"error: {_chain_instance_file()}: TCTM found no schedule within 2 s (no_solution: ")
+    assert "raise --time-limit" in err
+    assert seconds < limit + OVERRUN_S + OVERRUN_SHARE * limit + 3  # + loading the instance and the process
+
+
+def test_within_kills_what_overruns_and_reports_what_fails():
+    from protocols.secs.schedule import _within
+
+    started = time.monotonic()
+    assert _within(lambda: time.sleep(30), 0.3) is None
+    assert time.monotonic() - started < 3
+    assert _within(lambda: {"x": [1, 2]}, 5) == {"x": [1, 2]}
+    with pytest.raises(RuntimeError, match="ZeroDivisionError"):
+        _within(lambda: 1 / 0, 5)
+
+
+# ------------------------------------------------------------------ 13. certificate files under any umask
+@pytest.mark.parametrize("umask", [0o000, 0o077], ids=["umask-000", "umask-077"])
+def test_cluster_certs_modes_do_not_depend_on_the_umask(tmp_path, capsys, umask):
+    """``cluster-certs`` (and ``world --secure``'s files): keys 0600, certificates 0644, a new directory 0700."""
+    from swarmactors.cli import main
+
+    folder = tmp_path / "deep" / "certs"
+    old = os.umask(umask)
+    try:
+        assert main(["cluster-certs", str(folder)]) == 0, capsys.readouterr().err
+    finally:
+        os.umask(old)
+    modes = {p.name: stat.S_IMODE(p.stat().st_mode) for p in folder.iterdir()}
+    assert modes == {"ca.pem": 0o644, "world.pem": 0o644, "cluster.pem": 0o644, "ca.key": 0o600, "world.key": 0o600,
+                     "cluster.key": 0o600, "users.txt": 0o600, "host.credential": 0o600}, modes
+    assert stat.S_IMODE(folder.stat().st_mode) == 0o700

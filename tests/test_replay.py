@@ -76,9 +76,10 @@ async def test_replay_shows_the_live_positions_at_intermediate_ticks(tmp_path):
     ticks = [t for t in (17, 3, 26, 11, 22, 6) if t in live]
     assert len(ticks) >= 5, sorted(live)  # the local state stream lost (almost) nothing
     server = ViewerServer("127.0.0.1", 0, ReplaySource(Replay(result.trace_path)))
-    url = await server.start()
+    await server.start()
+    url = server.base
     try:
-        async with aiohttp.ClientSession() as http:
+        async with aiohttp.ClientSession(headers={"X-Swarmactors-Token": server.token}) as http:
             for t in ticks:  # forwards and backwards: checkpoints must not leak state between seeks
                 async with http.post(url + "api/command", json={"cmd": "seek", "t": t}) as r:
                     assert (await r.json())["ok"]

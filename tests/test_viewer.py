@@ -29,7 +29,7 @@ from transport import Endpoints
 pytestmark = pytest.mark.slow  # every test runs a world over Zenoh, some a browser
 
 TESTS = Path(__file__).resolve().parent
-URL = re.compile(r"viewer: (http://127\.0\.0\.1:\d+/)")
+URL = re.compile(r"viewer: (http://127\.0\.0\.1:\d+/\?token=[\w-]+)")
 
 SCENARIO = """
 [run]
@@ -73,16 +73,21 @@ def _wait_url(proc: subprocess.Popen, log: Path, timeout: float = 60) -> str:
     raise AssertionError(f"no viewer URL within {timeout} s: {log.read_text()}")
 
 
-def _get(url: str):
-    with urllib.request.urlopen(url, timeout=10) as r:
+def _request(url: str, path: str, data: bytes | None = None) -> urllib.request.Request:
+    """A request for ``path`` of the viewer printed as ``url`` (…/?token=T), with the token as a header."""
+    base, token = url.split("?token=")
+    headers = {"X-Swarmactors-Token": token, "Content-Type": "application/json"}
+    return urllib.request.Request(base + path, data=data, headers=headers)
+
+
+def _get(url: str, path: str):
+    with urllib.request.urlopen(_request(url, path), timeout=10) as r:
         body = r.read().decode()
     return json.loads(body) if r.headers.get_content_type() == "application/json" else body
 
 
 def _post(url: str, cmd: dict) -> dict:
-    req = urllib.request.Request(url + "api/command", data=json.dumps(cmd).encode(),
-                                 headers={"Content-Type": "application/json"})
-    with urllib.request.urlopen(req, timeout=10) as r:
+    with urllib.request.urlopen(_request(url, "api/command", json.dumps(cmd).encode()), timeout=10) as r:
         return json.loads(r.read())
 
 
@@ -236,29 +241,29 @@ def test_remote_viewer_follows_and_controls_a_world_and_names_missing_runs(tmp_p
     try:
         view = _start(["view", "--connect", endpoint, "--run", "far1", "--port", "0"], tmp_path / "view.log")
         url = _wait_url(view, tmp_path / "view.log")
-        frame = _until(lambda: (f := _get(url + "api/frame"))["t"] is not None and f, what="a state")
+        frame = _until(lambda: (f := _get(url, "api/frame"))["t"] is not None and f, what="a state")
         assert frame["run_id"] == "far1" and len(frame["robots"]) == 12
         # meanwhile, a viewer pointed at a run that does not exist says so, naming the runs that do
         missing = subprocess.Popen([sys.executable, "-m", "swarmactors", "view", "--connect", endpoint, "--run", "nope",
                                     "--port", "0"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                    env=_env())
         assert _post(url, {"cmd": "pause"})["ok"]
-        paused_at = _until(lambda: (s := _get(url + "api/frame"))["paused"] and s["t"], what="paused")
+        paused_at = _until(lambda: (s := _get(url, "api/frame"))["paused"] and s["t"], what="paused")
         time.sleep(0.3)
-        assert _get(url + "api/frame")["t"] == paused_at
+        assert _get(url, "api/frame")["t"] == paused_at
         _, missing_err = missing.communicate(timeout=60)
         assert missing.returncode == 3
         assert "no run 'nope' answers at" in missing_err and "far1" in missing_err
         assert _post(url, {"cmd": "kill", "id": 2})["ok"]
         assert _post(url, {"cmd": "step"})["ok"]
-        frame = _until(lambda: (f := _get(url + "api/frame"))["t"] == paused_at + 1 and f, what="the step")
+        frame = _until(lambda: (f := _get(url, "api/frame"))["t"] == paused_at + 1 and f, what="the step")
         assert [d[0] for d in frame["dead"]] == [2] and 2 not in [r[0] for r in frame["robots"]]
-        assert tomllib.loads(_get(url + "api/events.toml"))["events"][0]["kill"] == [2]
-        assert not _get(url + "api/robot/3")["frames_available"]
+        assert tomllib.loads(_get(url, "api/events.toml"))["events"][0]["kill"] == [2]
+        assert not _get(url, "api/robot/3")["frames_available"]
         assert _post(url, {"cmd": "stop"})["ok"]
         world.wait(timeout=60)
         assert world.returncode == 0, (tmp_path / "world.log").read_text()
-        _until(lambda: _get(url + "api/frame")["gone"], what="the viewer to notice the world is gone")
+        _until(lambda: _get(url, "api/frame")["gone"], what="the viewer to notice the world is gone")
     finally:
         for p in (view, host, world):
             if p is not None and p.poll() is None:
@@ -287,10 +292,12 @@ def test_viewer_of_an_unreachable_endpoint_says_so():
 
 async def _raw_websocket(url: str):
     """A WebSocket opened by hand: the handshake, then nothing (the caller decides whether to read or vanish)."""
-    host, port = url.split("//")[1].rstrip("/").split(":")
+    base, token = url.split("?token=")
+    host, port = base.split("//")[1].rstrip("/").split(":")
     reader, writer = await asyncio.open_connection(host, int(port))
-    writer.write(f"GET /ws HTTP/1.1\r\nHost: {host}:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
-                 "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n".encode())
+    writer.write(f"GET /ws?token={token} HTTP/1.1\r\nHost: {host}:{port}\r\nUpgrade: websocket\r\n"
+                 "Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
+                 "Sec-WebSocket-Version: 13\r\n\r\n".encode())
     await writer.drain()
     status = await reader.readline()
     assert b" 101 " in status, status
@@ -311,7 +318,7 @@ async def test_pages_that_stall_or_leave_do_not_hold_the_run(tmp_path):
             stalled = await _raw_websocket(server.url)  # never reads a byte
             leaving = await _raw_websocket(server.url)
             leaving[1].transport.abort()  # vanishes without a goodbye
-            async with http.ws_connect(server.url + "ws") as ws:
+            async with http.ws_connect(f"{server.base}ws?token={server.token}") as ws:
                 first = json.loads((await ws.receive()).data)
                 assert first["type"] == "frame"
                 await ws.send_json({"cmd": "speed", "rate": None, "id": 1})
@@ -377,6 +384,11 @@ def test_viewer_draws_the_maze_walls_where_the_world_has_them(tmp_path):
             r, g, b, alpha = page.evaluate(POINT_PIXEL, list(free))
             assert alpha < 20 or min(r, g, b) > 200, (r, g, b, alpha)  # an empty corridor cell: nothing drawn
             assert not errors, errors
+            # the address without its token: the page loads, says why it shows nothing, and draws nothing
+            bare = browser.new_page()
+            bare.goto(url.split("?")[0])
+            bare.wait_for_function("document.getElementById('banner').textContent.includes('needs its token')")
+            assert bare.evaluate("window.swarm.frame") is None
             browser.close()
     finally:
         proc.terminate()

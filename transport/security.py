@@ -11,6 +11,9 @@
 
 Hosts get ``ca.pem`` and ``host.credential`` (``swarmactors robots --secure DIR``).
 
+Modes are set explicitly, whatever the umask: certificates 0644, keys and credentials 0600, a directory these
+functions create 0700.
+
 ``cluster_files(DIR)`` adds ``cluster.pem`` / ``cluster.key``: one certificate signed by the same CA that the
 Dask scheduler, its workers and the submitting client all present (mutual TLS, ``--cluster tls://…``).
 The world's Zenoh access-control rules let that credential only query
@@ -26,10 +29,38 @@ import datetime
 import ipaddress
 import os
 import secrets
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 HOST_USER = "robot-host"
+PUBLIC_MODE = 0o644  # certificates: hosts and workers need ca.pem; a certificate holds no secret
+SECRET_MODE = 0o600  # private keys, users.txt, host.credential: the owner only
+DIRECTORY_MODE = 0o700  # a directory these functions create
+
+
+def _make_directory(directory: Path) -> None:
+    """Create ``directory`` with mode 0700 whatever the umask; an existing one is left as it is."""
+    if not directory.is_dir():
+        directory.mkdir(parents=True, mode=DIRECTORY_MODE)
+        os.chmod(directory, DIRECTORY_MODE)  # mkdir's mode is masked by the umask; chmod's is not
+
+
+def _write(path: Path, data: bytes, mode: int) -> None:
+    """Write ``path`` with exactly ``mode`` (whatever the umask), by rename: never readable by others, never half.
+
+    The temporary file has a unique name (``mkstemp``: created 0600), so two processes writing the same
+    directory at once each rename a whole file.
+    """
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            os.fchmod(fd, mode)
+            f.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
 
 
 @dataclass(frozen=True)
@@ -120,7 +151,7 @@ def ensure_files(directory: Path, names: list[str] = ()) -> Path:
     from cryptography.hazmat.primitives.asymmetric import ec
     from cryptography.x509.oid import NameOID
 
-    directory.mkdir(parents=True, exist_ok=True)
+    _make_directory(directory)
     needed = ["ca.pem", "ca.key", "world.pem", "world.key", "users.txt", "host.credential"]
     if all((directory / n).exists() for n in needed):
         return directory
@@ -153,10 +184,7 @@ def ensure_files(directory: Path, names: list[str] = ()) -> Path:
     files = {"ca.pem": pem(ca), "ca.key": private(ca_key), "world.pem": pem(world), "world.key": private(world_key),
              "users.txt": f"{HOST_USER}:{password}\n".encode(), "host.credential": f"{HOST_USER}:{password}\n".encode()}
     for name, data in files.items():
-        path = directory / name
-        path.write_bytes(data)
-        if name.endswith(".key") or name in ("users.txt", "host.credential"):
-            os.chmod(path, 0o600)
+        _write(directory / name, data, PUBLIC_MODE if name.endswith(".pem") else SECRET_MODE)
     return directory
 
 
@@ -190,12 +218,7 @@ def cluster_files(directory: Path, names: list[str] = ()) -> Path:
             .add_extension(x509.SubjectAlternativeName(alt), critical=False)
             .add_extension(x509.BasicConstraints(ca=False, path_length=None), critical=True)
             .sign(ca_key, hashes.SHA256()))
-    for name, data, mode in (("cluster.pem", cert.public_bytes(serialization.Encoding.PEM), 0o644),
-                             ("cluster.key", key.private_bytes(serialization.Encoding.PEM,
-                                                               serialization.PrivateFormat.PKCS8,
-                                                               serialization.NoEncryption()), 0o600)):
-        tmp = directory / f".{name}.tmp"
-        tmp.write_bytes(data)
-        os.chmod(tmp, mode)
-        tmp.replace(directory / name)
+    _write(directory / "cluster.pem", cert.public_bytes(serialization.Encoding.PEM), PUBLIC_MODE)
+    _write(directory / "cluster.key", key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
+                                                        serialization.NoEncryption()), SECRET_MODE)
     return directory

@@ -26,10 +26,12 @@ added here, each needed for the printed ones to mean what the text says (docs/pr
 from __future__ import annotations
 
 import math
+import multiprocessing
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from itertools import product
+from typing import Any
 
 import numpy as np
 from scipy.optimize import Bounds, LinearConstraint, linear_sum_assignment, milp
@@ -38,6 +40,9 @@ from scipy.sparse import csr_array
 __all__ = [
     "ARMS",
     "DENSITIES",
+    "MAX_ROBOTS",
+    "MAX_TASKS",
+    "MAX_VARIABLES",
     "Instance",
     "InstanceError",
     "Schedule",
@@ -49,6 +54,7 @@ __all__ = [
     "completion_time",
     "dislocation",
     "min_arms",
+    "model_variables",
     "random_instance",
     "solve",
     "solve_tctm",
@@ -61,6 +67,14 @@ DENSITIES = (0.005, 0.01, 0.05, 0.1, 0.2, 0.5)  # communication densities D of �
 # circumscribed octagon (the paper's "paper" reading), whose corners lie 8.2 % beyond the circle; "inscribed"
 # scales R by cos(π/8) so that every admitted point is within the circle (a safe arm length).
 ARMS = {"paper": 1.0, "inscribed": math.cos(math.pi / 8)}
+# Instance bounds, checked before a model is built (docs/protocols/tsc.md, "Limits"): the paper's instances and
+# ours have |N| = 20 and |T| <= 8 (benchmarks/tsc_experiments.py); a MILP far beyond these is not solved in any
+# time limit a user would give, and building it alone takes the memory of |T|^2 rows.
+MAX_ROBOTS = 1000  # |N|: the robot assignment is a |N| x |N| matrix per slot
+MAX_TASKS = 100  # |T|: |T| x |S| of each of x, w, y^X, y^Y, with |S| = |T| by default
+MAX_VARIABLES = 100_000  # the model's columns (model_variables): ~10 rows and ~30 nonzeros per (task, slot)
+OVERRUN_S = 1.0  # HiGHS may overrun its time limit (its presolve checks the clock rarely): it is stopped after
+OVERRUN_SHARE = 0.05  # the limit + OVERRUN_S + OVERRUN_SHARE x the limit, in a child process that is killed
 
 
 class InstanceError(ValueError):
@@ -153,6 +167,10 @@ def check_instance(inst: Instance) -> None:
         raise InstanceError("arms", inst.arms, f"must be one of {', '.join(ARMS)}")
     if not inst.tasks:
         raise InstanceError("tasks", [], "there is no task to schedule")
+    if len(inst.robots) > MAX_ROBOTS:
+        raise InstanceError("robots", len(inst.robots), f"more than the {MAX_ROBOTS} robots a schedule may have")
+    if len(inst.tasks) > MAX_TASKS:
+        raise InstanceError("tasks", len(inst.tasks), f"more than the {MAX_TASKS} tasks a schedule may have")
     n = len(inst.robots)
     owned = set().union(*inst.robots) if inst.robots else set()
     ids = {}
@@ -194,6 +212,29 @@ def check_instance(inst: Instance) -> None:
         raise InstanceError("max_slots", inst.max_slots, "must be >= 1")
     if inst.max_slots is not None and inst.max_slots < depth:
         raise InstanceError("max_slots", inst.max_slots, f"the priorities chain {depth} tasks: at least {depth} slots")
+    columns = model_variables(inst)
+    if columns > MAX_VARIABLES:
+        raise InstanceError("tasks", len(inst.tasks),
+                            f"the model would have {columns:,} variables ({len(inst.tasks)} tasks x {inst.slots} "
+                            f"slots), more than {MAX_VARIABLES:,}: give fewer tasks, a smaller solver.max_slots or "
+                            "fewer distinct capability sets")
+
+
+def model_variables(inst: Instance) -> int:
+    """Columns of the TDSM model (TCTM has 2|S| fewer): x, w, y^X, y^Y per (task, slot); z, Θ, ḡ and K's flows."""
+    classes = inst.classes()
+    types = {t.capabilities for t in inst.tasks}
+    arcs = sum(1 for j in types for k in classes if j <= k)
+    return inst.slots * (4 * len(inst.tasks) + 5 + arcs)
+
+
+class ModelTimeout(Exception):
+    """The time limit ran out while the model was being built."""
+
+
+def _deadline_check(deadline: float) -> None:
+    if time.perf_counter() > deadline:
+        raise ModelTimeout
 
 
 def _priority_depth(inst: Instance) -> int | None:
@@ -356,16 +397,63 @@ class _Builder:
         self.hi.append(hi)
 
     def solve(self, time_limit: float, mip_rel_gap: float | None):
-        a = csr_array((self.vals, (self.r_idx, self.c_idx)), shape=(len(self.lo), len(self.lb)))
-        options = {"time_limit": float(time_limit), "presolve": True}
-        if mip_rel_gap is not None:
-            options["mip_rel_gap"] = mip_rel_gap
-        return milp(np.array(self.cost), integrality=np.array(self.integ), bounds=Bounds(self.lb, self.ub),
-                    constraints=LinearConstraint(a, self.lo, self.hi), options=options)
+        """``milp`` with HiGHS's ``time_limit``; None if HiGHS overran it (see ``_within``)."""
+
+        def run():
+            a = csr_array((self.vals, (self.r_idx, self.c_idx)), shape=(len(self.lo), len(self.lb)))
+            options = {"time_limit": float(time_limit), "presolve": True}
+            if mip_rel_gap is not None:
+                options["mip_rel_gap"] = mip_rel_gap
+            return milp(np.array(self.cost), integrality=np.array(self.integ), bounds=Bounds(self.lb, self.ub),
+                        constraints=LinearConstraint(a, self.lo, self.hi), options=options)
+
+        return _within(run, time_limit + OVERRUN_S + OVERRUN_SHARE * time_limit)
 
 
-def _model(inst: Instance, tdsm: bool, bound: float | None):
-    """Variables and constraints shared by TCTM and TDSM (Eqs. 5-13 and Y, R, K), plus G and B for TDSM."""
+def _within(fn: Callable[[], Any], seconds: float):
+    """``fn()`` run in a forked child process, killed if it has not answered within ``seconds`` (then None).
+
+    An exception in the child is raised again here as a RuntimeError. Without ``fork`` (Windows), ``fn()`` runs
+    here, unbounded.
+    """
+    if "fork" not in multiprocessing.get_all_start_methods():
+        return fn()
+    ctx = multiprocessing.get_context("fork")
+    receive, send = ctx.Pipe(duplex=False)
+    child = ctx.Process(target=_answer, args=(fn, send), daemon=True)
+    child.start()
+    send.close()
+    try:
+        if not receive.poll(seconds):
+            return None
+        try:
+            ok, value = receive.recv()
+        except EOFError:
+            child.join(1.0)
+            raise RuntimeError(f"the solver process ended without an answer (exit code {child.exitcode})") from None
+        if not ok:
+            raise RuntimeError(f"the solver failed: {value}")
+        return value
+    finally:
+        receive.close()
+        child.kill()
+        child.join()
+
+
+def _answer(fn: Callable[[], Any], send) -> None:
+    try:
+        out = (True, fn())
+    except BaseException as exc:  # noqa: BLE001 — reported to the parent, which raises it
+        out = (False, f"{exc.__class__.__name__}: {exc}")
+    send.send(out)
+    send.close()
+
+
+def _model(inst: Instance, tdsm: bool, bound: float | None, deadline: float = math.inf):
+    """Variables and constraints shared by TCTM and TDSM (Eqs. 5-13 and Y, R, K), plus G and B for TDSM.
+
+    ModelTimeout once ``time.perf_counter()`` passes ``deadline`` (checked once per task and per slot).
+    """
     b = _Builder()
     tasks, n, m, nt = inst.tasks, len(inst.robots), inst.slots, len(inst.tasks)
     (x0, x1), (y0, y1) = inst.arena
@@ -386,6 +474,7 @@ def _model(inst: Instance, tdsm: bool, bound: float | None):
     thx = b.var((m,), x0, x1, False)
     thy = b.var((m,), y0, y1, False)  # R: Θ^s inside the region
     for t in range(nt):
+        _deadline_check(deadline)
         b.row([(x[t, s], 1) for s in range(m)], 1, 1)  # (6) each task in exactly one slot
         m7 = max(ux[t] + uy[t] - r2 * reach0, 0.0)
         m8, m9 = max(ux[t] - reach0, 0.0), max(uy[t] - reach0, 0.0)
@@ -401,11 +490,13 @@ def _model(inst: Instance, tdsm: bool, bound: float | None):
             b.row([(yy[t, s], 1), (w[t, s], -slope), (x[t, s], m9)], hi=reach0 + m9)  # (9)
             b.row([(w[t, s], 1), (x[t, s], -(n - 1 - beta[t]))], hi=0)  # (11), tightened
     for s in range(m):
+        _deadline_check(deadline)
         b.row([(w[t, s], 1) for t in range(nt)] + [(x[t, s], beta[t]) for t in range(nt)], hi=n - 1)  # (10)
         if s > 0:  # (12) slot s used only if slot s-1 is
             b.row([(x[t, s], 1) for t in range(nt)] + [(x[t, s - 1], -nt) for t in range(nt)], hi=0)
     pos = {t.id: i for i, t in enumerate(tasks)}
     for t2, task in enumerate(tasks):  # (13) a^{s} positions: t1 strictly before t2
+        _deadline_check(deadline)
         for a in task.after:
             t1 = pos[a]
             b.row([(x[t1, s], s + 1) for s in range(m)] + [(x[t2, s], -(s + 1)) for s in range(m)], hi=-1)
@@ -415,6 +506,7 @@ def _model(inst: Instance, tdsm: bool, bound: float | None):
     arcs = [(j, k) for j, k in product(range(len(types)), classes) if types[j] <= k]
     u = b.var((len(arcs), m), 0, np.inf, False)
     for s in range(m):
+        _deadline_check(deadline)
         for j, tj in enumerate(types):
             terms = [(u[a, s], 1) for a, (jj, _) in enumerate(arcs) if jj == j]
             terms += [(x[t, s], -beta[t]) for t in range(nt) if tasks[t].capabilities == tj]
@@ -449,9 +541,21 @@ def _solve(inst: Instance, model: str, time_limit: float, mip_rel_gap: float | N
     if time_limit <= 0:
         raise ValueError(f"time_limit = {time_limit!r}: must be > 0")
     t0 = time.perf_counter()
-    b, cols = _model(inst, model == "tdsm", bound)
-    res = b.solve(time_limit, mip_rel_gap)
+    deadline = t0 + time_limit  # one limit for building the model and solving it
+    try:
+        b, cols = _model(inst, model == "tdsm", bound, deadline)
+        _deadline_check(deadline - 0.01)  # leave HiGHS at least 10 ms
+    except ModelTimeout:
+        seconds = time.perf_counter() - t0
+        return Schedule(model=model, status="no_solution", seconds=round(seconds, 4), bound=bound,
+                        message=f"the time limit ({time_limit:g} s) ran out while the model was being built "
+                                f"(after {seconds:.2f} s)")
+    res = b.solve(deadline - time.perf_counter(), mip_rel_gap)
     seconds = time.perf_counter() - t0
+    if res is None:
+        return Schedule(model=model, status="no_solution", seconds=round(seconds, 4), bound=bound,
+                        message=f"HiGHS did not stop at the time limit ({time_limit:g} s): stopped after "
+                                f"{seconds:.2f} s")
     status = {0: "optimal", 1: "time_limit", 2: "infeasible", 3: "unbounded"}.get(res.status, "error")
     out = Schedule(model=model, status=status, message=str(res.message), seconds=round(seconds, 4), bound=bound,
                    nodes=getattr(res, "mip_node_count", None))

@@ -14,8 +14,16 @@ const S = {
 };
 
 // ------------------------------------------------------------------ connection
+// The server's per-run token, from the address it printed (…/?token=…); sent with every request but the page.
+const TOKEN = new URLSearchParams(location.search).get("token") || "";
+
+function api(path) {
+  return fetch(path, { headers: { "X-Swarmactors-Token": TOKEN } });
+}
+
 function connect() {
-  const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`);
+  const scheme = location.protocol === "https:" ? "wss" : "ws";
+  const ws = new WebSocket(`${scheme}://${location.host}/ws?token=${encodeURIComponent(TOKEN)}`);
   S.ws = ws;
   ws.onopen = () => banner(null);
   ws.onmessage = (ev) => {
@@ -23,7 +31,16 @@ function connect() {
     if (msg.type === "frame") { S.frame = msg; schedule(); }
     else if (msg.type === "reply" && !msg.ok) banner(msg.error || "refused", true);
   };
-  ws.onclose = () => { banner("disconnected from the viewer server; retrying…", true); setTimeout(connect, 1000); };
+  ws.onclose = async () => {
+    let refused = null;  // a WebSocket does not tell why it was refused: ask over HTTP
+    try {
+      const r = await api("/api/frame");
+      if (r.status === 403) refused = await r.text();
+    } catch (e) { /* the server is gone: retry below */ }
+    if (refused) { banner(refused, true); clearTimeout(bannerTimer); return; }
+    banner("disconnected from the viewer server; retrying…", true);
+    setTimeout(connect, 1000);
+  };
 }
 
 function send(cmd) {
@@ -210,7 +227,7 @@ function drawSpace(ctx, T, f) {
   if (!f.space) return;
   if (S.space === undefined) {
     S.space = null;
-    fetch("/api/space").then((r) => r.json()).then((sp) => { S.space = sp; render(); });
+    api("/api/space").then((r) => r.json()).then((sp) => { S.space = sp; render(); });
     return;
   }
   const sp = S.space;
@@ -403,7 +420,7 @@ async function loadRobot(rid) {
   S.robotFetch = performance.now();
   let d;
   try {
-    d = await (await fetch(`/api/robot/${rid}`)).json();
+    d = await (await api(`/api/robot/${rid}`)).json();
   } catch (e) { return; }
   if (S.selected !== rid) return;
   const status = Object.entries(d.status || {}).map(([k, v]) => `<tr><th>${esc(k)}</th><td>${esc(fmt(v))}</td></tr>`).join("");
@@ -507,7 +524,7 @@ function setup() {
     S.seekTimer = setTimeout(() => send({ cmd: "seek", t: Number($("slider").value) }), 30);
   };
   $("export").onclick = async () => {
-    const text = await (await fetch("/api/events.toml")).text();
+    const text = await (await api("/api/events.toml")).text();
     $("export-text").value = text;
     $("export-box").hidden = false;
     $("export-text").scrollIntoView();
