@@ -13,6 +13,7 @@ import contextlib
 import json
 import logging
 import os
+import signal
 import sys
 from contextlib import nullcontext
 from pathlib import Path
@@ -22,11 +23,11 @@ from rich.console import Console
 from swarmactors import export as export_cli
 from swarmactors import newproject, schedule_cli
 from swarmactors import scenario as scenario_mod
-from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME
+from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME, run_exit
 from swarmactors.hosting import HostError, serve_host
 from swarmactors.launcher import new_run_id, private_endpoints, run_dir, run_world, scenario_file, validate_run
 from swarmactors.plugins import BEHAVIORS, PluginError, resolve
-from swarmactors.progress import RunProgress, summary_table
+from swarmactors.progress import RunProgress, crash_tracebacks, summary_table
 from swarmactors.scenario import ScenarioError
 from transport import Endpoints, Keys, Security, ensure_files, lease_settings
 from transport.auth import RUN_SECRET_ENV
@@ -333,31 +334,74 @@ def _run_on(args, sc: dict, err: Console, out_dir: Path, endpoints: Endpoints, r
             result = session.run(sc, out_dir, endpoints, run_id, sc["run"]["processes"], local, progress.on_tick)
         else:
             result = asyncio.run(run_world(sc, out_dir, endpoints, run_id, processes=sc["run"]["processes"],
-                                           local_host=local, on_tick=progress.on_tick))
-    field = _plot_field(sc)
-    if not args.no_plots and (result.trace_path is not None or result["robots"]):
-        try:
-            from swarmactors.plots import plot_run  # matplotlib is slow to import: only when plotting
-
-            plot_run(result, out_dir / "swarm.png", field)
-        except Exception as exc:  # a plot must never cost the run its result
-            err.print(f"[yellow]plot skipped:[/] {exc}")
-    if not args.no_plots and result.trace_path is not None:
-        from swarmactors.see import write_run_charts
-        from swarmactors.trajectories import write_trajectories
-
-        write_run_charts(result, out_dir, field, err)
-        write_trajectories(result, out_dir, err)
+                                           local_host=local, on_tick=progress.on_tick, return_on_signal=True))
+    code, reason = run_exit(result.data)
+    files = [p.name for p in (out_dir / "result.json", result.trace_path) if p is not None and p.exists()]
+    late = result.signal is not None and not result["interrupted"]  # compose stopping the world after its hosts
+    if not args.no_plots and not late and result["ticks"] > 0:
+        files += _plots(result, sc, out_dir, err)
     if args.json:
-        print(json.dumps({k: result.data[k] for k in ("run_id", "ticks", "wall_s", "trace_hash", "world",
-                                                     "metrics", "checks", "interrupted")}))
+        print(json.dumps({**{k: result.data[k] for k in ("run_id", "ticks", "wall_s", "trace_hash", "world",
+                                                          "metrics", "checks", "interrupted")},
+                          "exit": int(code), "outcome": reason}))
     elif not args.quiet:
-        err.print(summary_table(result.data, out_dir))
+        _wide(err).print(summary_table(result.data))
+        # plain lines, never wrapped: a path must survive a copy and paste
+        print(f"output: {out_dir}", file=sys.stderr)
+        print(f"files: {', '.join(files)}", file=sys.stderr)
+    if args.quiet and code != EXIT_OK:  # one line, whatever else was asked
+        print(f"{sc['run']['name']}: {reason} (exit {int(code)}; {out_dir / 'result.json'})", file=sys.stderr)
+    if args.verbose:
+        for text in crash_tracebacks(result.data["robots"]):
+            print(text, file=sys.stderr)
     if session is not None:
         session.linger()  # the page shows the run's trace until Ctrl-C
-    if result["interrupted"]:
-        return EXIT_INTERRUPTED
-    return EXIT_OK if result.passed else EXIT_CHECK
+    return int(code)
+
+
+def _plots(result, sc: dict, out_dir: Path, err: Console) -> list[str]:
+    """Draw the run's pictures beside result.json; the names of those written.
+
+    SIGINT or SIGTERM while they are drawn (docker-compose stopping the world once its hosts have exited) skip
+    the rest: the summary is still printed and the exit code stays the run's.
+    """
+    written: list[Path] = []
+    field = _plot_field(sc)
+    with _signals_interrupt_plots():
+        try:
+            if result.trace_path is not None or result["robots"]:
+                try:
+                    from swarmactors.plots import plot_run  # matplotlib is slow to import: only when plotting
+
+                    written.append(plot_run(result, out_dir / "swarm.png", field))
+                except Exception as exc:  # a plot must never cost the run its result
+                    err.print(f"[yellow]plot skipped:[/] {exc}")
+            if result.trace_path is not None:
+                from swarmactors.see import write_run_charts
+                from swarmactors.trajectories import write_trajectories
+
+                written += write_run_charts(result, out_dir, field, err)
+                written.append(write_trajectories(result, out_dir, err))
+        except KeyboardInterrupt:
+            err.print("[yellow]pictures skipped:[/] interrupted")
+    return [p.name for p in written if p is not None and p.exists()]
+
+
+@contextlib.contextmanager
+def _signals_interrupt_plots():
+    """SIGTERM raises KeyboardInterrupt inside (as SIGINT does), so drawing stops and the summary is printed."""
+    def stop(_signum, _frame):
+        raise KeyboardInterrupt
+
+    try:
+        before = signal.signal(signal.SIGTERM, stop)
+    except ValueError:  # not the main thread
+        before = None
+    try:
+        yield
+    finally:
+        if before is not None:
+            signal.signal(signal.SIGTERM, before)
 
 
 def _world_endpoints(args, run_id: str) -> Endpoints:
@@ -428,9 +472,7 @@ def _check(args, err: Console) -> int:
             table.add_row(name if k == 0 else "", mark if k == 0 else "", check.removeprefix("check "), verdict,
                           str(r.seed) if k == 0 else "", first if k == 0 else "",
                           end_section=k == len(rows) - 1)
-    # not on a terminal (CI logs, a pipe): no 80-column wrapping of names
-    out = err if err.is_terminal else Console(stderr=True, no_color=True, width=400, soft_wrap=True)
-    out.print(table)
+    _wide(err).print(table)
     for r in results:
         if not r.passed:
             for o in r.outcomes:
@@ -449,6 +491,11 @@ def _check(args, err: Console) -> int:
     judged = check_counts([o for r in results for o in r.outcomes])
     print(f"{len(results) - failed} passed, {failed} failed (checks: {judged})", file=sys.stderr)
     return EXIT_OK if failed == 0 else EXIT_CHECK
+
+
+def _wide(err: Console) -> Console:
+    """Where tables go: the terminal, or off a terminal (CI logs, a pipe) a console without 80-column wrapping."""
+    return err if err.is_terminal else Console(stderr=True, no_color=True, width=400, soft_wrap=True)
 
 
 def _wait_for(path: Path, seconds: float) -> None:

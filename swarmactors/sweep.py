@@ -457,7 +457,7 @@ def trial_cells(sc: dict, out_dir: Path, run_id: str, keep: str) -> tuple[dict |
 
     try:
         result = asyncio.run(run_world(sc, out_dir, Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"]), run_id,
-                                       processes=sc["run"]["processes"]))
+                                       processes=sc["run"]["processes"], return_on_signal=True))
     except Exception as exc:  # the row says why; the sweep goes on
         return {"error": f"{exc.__class__.__name__}: {exc}"}, True
     if result["interrupted"]:
