@@ -24,7 +24,7 @@ from swarmactors import export as export_cli
 from swarmactors import newproject, schedule_cli
 from swarmactors import scenario as scenario_mod
 from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME, run_exit
-from swarmactors.hosting import HostError, serve_host
+from swarmactors.hosting import WORLD_GONE_S, HostError, refusal_line, serve_host
 from swarmactors.launcher import new_run_id, private_endpoints, run_dir, run_world, scenario_file, validate_run
 from swarmactors.plugins import BEHAVIORS, PluginError, resolve
 from swarmactors.progress import RunProgress, crash_tracebacks, summary_table
@@ -114,7 +114,8 @@ def build_parser() -> argparse.ArgumentParser:
     robots.add_argument("--mode", choices=["peer", "client"], default="client")
     robots.add_argument("--secure", type=Path, metavar="DIR", help="directory with ca.pem and host.credential")
     robots.add_argument("--allow", action="append", default=[], metavar="MODULE",
-                        help="a module whose Behavior classes this host may run (repeatable); "
+                        help="a module whose Behavior classes this host may run (repeatable): a scenario's "
+                             "use = \"mine:MyBehavior\" needs --allow mine here (the world cannot grant it); "
                              "registered behaviours are always allowed, nothing else is")
     robots.add_argument("--wait", type=float, default=60.0, metavar="S",
                         help="keep trying to reach and join the world for S seconds, with backoff (default 60, "
@@ -586,11 +587,15 @@ def _robots(args) -> int:
               "(see docs/security.md)", file=sys.stderr)
     say = (lambda _line: None) if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     try:
-        asyncio.run(serve_host(endpoints, args.run_id, args.count, args.allow, wait=args.wait, say=say))
+        host = asyncio.run(serve_host(endpoints, args.run_id, args.count, args.allow, wait=args.wait, say=say,
+                                      refuse=lambda line: print(f"error: {line}", file=sys.stderr, flush=True),
+                                      linger=WORLD_GONE_S))
     except HostError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_RUNTIME
-    return EXIT_OK
+    if refusal_line(host):
+        return EXIT_INPUT  # this host's command line lacked an --allow
+    return EXIT_CHECK if any(r.error for r in host.robots.values()) else EXIT_OK
 
 
 if __name__ == "__main__":
