@@ -13,6 +13,7 @@ import contextlib
 import json
 import logging
 import os
+import re
 import signal
 import sys
 from contextlib import nullcontext
@@ -209,6 +210,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except BrokenPipeError:  # stdout went away (``swarmactors list checks | head``): nothing more to say
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
     except Exception as exc:  # the last resort: one line naming the error, the traceback only with -v
         if args.verbose:
             raise
@@ -283,6 +287,16 @@ def _main(args) -> int:
         return EXIT_RUNTIME
 
 
+def _shipped_hint(scenario: str) -> None:
+    """A missing scenario named like a shipped one: say where that one is (outside a checkout, say)."""
+    path = Path(scenario)
+    if path.exists():
+        return
+    same = [p for p in shipped_scenarios() if p.name == path.name or p.stem == path.name]
+    if same:
+        raise UsageError(f"{scenario}: no such file; the shipped scenario of that name is {same[0]}")
+
+
 def _user_modules_importable(scenario: str | None) -> None:
     """Let ``use = "module:Class"`` find modules beside the scenario file and in the current directory."""
     for folder in ([str(Path(scenario).resolve().parent)] if scenario else []) + [str(Path.cwd())]:
@@ -291,6 +305,7 @@ def _user_modules_importable(scenario: str | None) -> None:
 
 
 def _load(args) -> dict:
+    _shipped_hint(args.scenario)
     scenario_file(args.scenario)
     overrides = list(args.set)
     if args.seed is not None:
@@ -520,32 +535,85 @@ def _plot_field(sc: dict) -> str | None:
 
 
 def _first_line(obj) -> str:
+    """A docstring's first line as plain text (reStructuredText's ``literal`` marks dropped)."""
     doc = (getattr(obj, "__doc__", None) or "").strip()
-    return doc.splitlines()[0] if doc else ""
+    return re.sub(r"``([^`]+)``", r"\1", doc.splitlines()[0]) if doc else ""
 
 
-def shipped_scenarios() -> list[Path]:
-    """The scenario files beside the installed package (a source checkout), then those under ./scenarios."""
-    folders = [Path(__file__).resolve().parents[1] / "scenarios", Path.cwd() / "scenarios"]
-    seen, out = set(), []
-    for folder in folders:
+def scenario_folders() -> list[Path]:
+    """Where ``list scenarios`` looks: the checkout beside the package, ./scenarios, then the installed copy.
+
+    A wheel installs the shipped scenarios under ``<prefix>/share/swarmactors/scenarios`` (pyproject.toml's
+    data-files), the user scheme's prefix too.
+    """
+    import sysconfig
+
+    prefixes = {sysconfig.get_path("data"), sysconfig.get_path("data", f"{os.name}_user")}
+    installed = [Path(p) / "share" / "swarmactors" / "scenarios" for p in sorted(prefixes) if p]
+    return [Path(__file__).resolve().parents[1] / "scenarios", Path.cwd() / "scenarios", *installed]
+
+
+def shipped_scenarios(folders: list[Path] | None = None) -> list[Path]:
+    """The scenario files of ``scenario_folders()``: each file name once, from the first folder that has it."""
+    seen: set[str] = set()
+    out: list[Path] = []
+    for folder in scenario_folders() if folders is None else folders:
         for path in sorted(folder.glob("*.toml")) if folder.is_dir() else []:
-            if path.resolve() not in seen:
-                seen.add(path.resolve())
+            if path.name not in seen:
+                seen.add(path.name)
                 out.append(path)
     return out
+
+
+def scenario_family(path: Path) -> str:
+    """The protocol family whose behaviours a scenario runs (``-`` for none, ``a+b`` for several)."""
+    import tomllib
+
+    from swarmactors.plugins import available
+
+    try:
+        raw = tomllib.loads(path.read_text(errors="replace"))
+    except (OSError, ValueError):
+        return "?"
+    behaviors = available(BEHAVIORS)  # name -> "module:attr", nothing imported
+    families = {ref.partition(":")[0].rpartition(".")[0]: name
+                for name, ref in available("swarmactors.families").items()}
+    found: list[str] = []
+    for group in raw.get("robots", []) if isinstance(raw.get("robots"), list) else []:
+        for spec in group.get("behaviors", []) if isinstance(group, dict) else []:
+            use = spec.get("use", "") if isinstance(spec, dict) else ""
+            ref = behaviors.get(use, use)
+            family = families.get(ref.partition(":")[0].rpartition(".")[0])
+            if family and family not in found:
+                found.append(family)
+    return "+".join(found) or "-"
+
+
+def _scenario_description(path: Path) -> str:
+    """A scenario file's description: the first line of its leading comment."""
+    for line in path.read_text(errors="replace").splitlines():
+        if not line.startswith("#"):
+            return ""
+        text = line.lstrip("#").strip()
+        if text:
+            return text
+    return ""
 
 
 def _list(what: str) -> int:
     """``swarmactors list behaviors|checks|families|scenarios``: names and one-line descriptions."""
     from swarmactors.plugins import CHECKS, PluginError, available
 
-    rows: list[tuple[str, str]] = []
+    rows: list[tuple[str, ...]] = []
     if what == "scenarios":
-        for path in shipped_scenarios():
-            lines = path.read_text(errors="replace").splitlines()
-            comment = next((ln.lstrip("# ").strip() for ln in lines if ln.startswith("#")), "")
-            rows.append((_shown_path(path), comment))
+        paths = shipped_scenarios()
+        if not paths:
+            where = ", ".join(str(f) for f in scenario_folders())
+            print(f"error: no scenario files found (looked in {where}); reinstall swarmactors, or run "
+                  "from a checkout of its repository", file=sys.stderr)
+            return EXIT_RUNTIME
+        rows = sorted(((scenario_family(p), _shown_path(p), _scenario_description(p)) for p in paths),
+                      key=lambda r: (r[0] == "-", r[0], r[1]))
     else:
         group = {"behaviors": BEHAVIORS, "checks": CHECKS, "families": "swarmactors.families"}[what]
         for name in sorted(available(group)):
@@ -557,9 +625,9 @@ def _list(what: str) -> int:
             if what == "families":
                 obj = sys.modules[obj.suite.__module__.rpartition(".")[0]]  # the family's package docstring
             rows.append((name, _first_line(obj)))
-    width = max((len(n) for n, _ in rows), default=0)
-    for name, text in rows:
-        print(f"{name:<{width}}  {text}".rstrip())
+    widths = [max((len(r[i]) for r in rows), default=0) for i in range(len(rows[0]) - 1)] if rows else []
+    for row in rows:
+        print("  ".join([*(f"{c:<{w}}" for c, w in zip(row, widths, strict=False)), row[-1]]).rstrip())
     return EXIT_OK
 
 

@@ -357,7 +357,7 @@ def test_version_and_list(tmp_path, monkeypatch, capsys):
     for what, (name, words) in expected.items():
         code, out, err = cli(["list", what], TESTS.parent, monkeypatch, capsys)
         assert code == 0, err
-        line = next(ln for ln in out.splitlines() if name in ln.split()[0])
+        line = next(ln for ln in out.splitlines() if name in ln.split()[1 if what == "scenarios" else 0])
         assert words in line, (what, line)
 
 

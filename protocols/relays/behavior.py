@@ -84,7 +84,7 @@ def valid_plan(v) -> str | None:
 
 
 class Relays(Behavior):
-    """Self-healing connectivity chains from a root to targets (Swarm Relays, 002)."""
+    """Self-healing connectivity chains from a root to targets (Swarm Relays, Varadharajan et al. 2020)."""
 
     name = "relays"
     kinds = (*VS_KINDS, CHAIN, TASK, BID, JOIN, NEED)
