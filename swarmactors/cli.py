@@ -662,7 +662,7 @@ def _robots(args) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_RUNTIME
     if refusal_line(host):
-        return EXIT_INPUT  # this host's command line lacked an --allow
+        return EXIT_INPUT  # this host lacked an --allow, or was started where a scenario's module is not
     return EXIT_CHECK if any(r.error for r in host.robots.values()) else EXIT_OK
 
 

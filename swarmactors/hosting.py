@@ -105,21 +105,36 @@ async def serve_host(endpoints: Endpoints, run_id: str, count: int | None, allow
 
 
 _NOT_ALLOWED = re.compile(r"refused behaviour '([^']+)': not a registered behaviour nor in a module this host allows")
+_NOT_IMPORTABLE = re.compile(r"PluginError: cannot import '([^']+)' for '([^']+)': ModuleNotFoundError")
 
 
 def refusal_line(host: RobotHost) -> str | None:
-    """One line for the robots whose behaviour this host's allowlist refused: which, and the ``--allow`` to add."""
-    uses: dict[str, list[int]] = {}
+    """One line for the robots whose behaviour this host could not build for want of an option or a module.
+
+    A ``module:Class`` outside the allowlist needs ``--allow MODULE``; an allowed module the host cannot import
+    needs the host started where the module is (its directory, or ``PYTHONPATH``).
+    """
+    refused: dict[str, list[int]] = {}
+    missing: dict[str, list[int]] = {}
     for rid, robot in sorted(host.robots.items()):
-        m = _NOT_ALLOWED.match(robot.error or "")
-        if m:
-            uses.setdefault(m.group(1), []).append(rid)
-    if not uses:
-        return None
-    modules = sorted({use.partition(":")[0] for use in uses})
-    what = "; ".join(f"{use!r} (robots {id_ranges(ids)})" for use, ids in uses.items())
-    return (f"this host refused {what}: neither a registered behaviour nor in a module it allows; those robots "
-            f"fail as refused_behavior. Start the host with {' '.join(f'--allow {m}' for m in modules)}")
+        error = robot.error or ""
+        if m := _NOT_ALLOWED.match(error):
+            refused.setdefault(m.group(1), []).append(rid)
+        elif m := _NOT_IMPORTABLE.match(error):
+            missing.setdefault(m.group(2), []).append(rid)
+    parts = []
+    if refused:
+        what = "; ".join(f"{use!r} (robots {id_ranges(ids)})" for use, ids in refused.items())
+        modules = sorted({use.partition(":")[0] for use in refused})
+        parts.append(f"this host refused {what}: neither a registered behaviour nor in a module it allows, so "
+                     f"those robots fail; start the host with {' '.join(f'--allow {m}' for m in modules)}")
+    if missing:
+        what = "; ".join(f"{use!r} (robots {id_ranges(ids)})" for use, ids in missing.items())
+        modules = sorted({use.partition(":")[0] for use in missing})
+        parts.append(f"this host cannot import {what}, so those robots fail; start the host in the directory "
+                     f"that holds {', '.join(m.replace('.', '/') for m in modules)} (.py), or put that directory "
+                     "on PYTHONPATH")
+    return "; ".join(parts) or None
 
 
 async def until_world_closes(link: Link, keys: Keys, within_s: float) -> None:
