@@ -34,10 +34,8 @@ from transport import Endpoints, Keys, Security, ensure_files, lease_settings
 from transport.auth import RUN_SECRET_ENV
 from transport.config import check_endpoint
 
-INSECURE_WARNING = (
-    "warning: running without --secure: anyone who can reach {where} can join this run, publish frames "
-    "as a robot host and read the swarm's traffic (see docs/security.md)"
-)
+INSECURE_WARNING = ("warning: running without --secure on {where}: {who} can join this run, read its traffic "
+                    "and answer its hosts (docs/security.md)")
 
 
 
@@ -353,8 +351,7 @@ def _run_on(args, sc: dict, err: Console, out_dir: Path, endpoints: Endpoints, r
                                            local_host=local, on_tick=progress.on_tick, return_on_signal=True))
     code, reason = run_exit(result.data)
     files = [p.name for p in (out_dir / "result.json", result.trace_path) if p is not None and p.exists()]
-    late = result.signal is not None and not result["interrupted"]  # compose stopping the world after its hosts
-    if not args.no_plots and not late and result["ticks"] > 0:
+    if not args.no_plots and result["ticks"] > 0:  # a signal while they are drawn skips the rest (_plots)
         files += _plots(result, sc, out_dir, err)
     if args.json:
         print(json.dumps({**{k: result.data[k] for k in ("run_id", "ticks", "wall_s", "trace_hash", "world",
@@ -420,10 +417,27 @@ def _signals_interrupt_plots():
             signal.signal(signal.SIGTERM, before)
 
 
+def loopback(endpoint: str) -> bool:
+    """A Zenoh endpoint only this machine reaches: a Unix socket, or TCP/UDP/QUIC on a loopback address."""
+    import ipaddress
+
+    proto, _, rest = endpoint.partition("/")
+    if proto.startswith("unixsock"):
+        return True
+    host = rest.rpartition(":")[0].strip("[]")
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
 def _world_endpoints(args, run_id: str) -> Endpoints:
     if args.secure is None:
         listen = args.listen or ["tcp/0.0.0.0:7447"]
-        print(INSECURE_WARNING.format(where=", ".join(listen)), file=sys.stderr)
+        who = "any local user" if all(loopback(ep) for ep in listen) else "anyone who reaches it"
+        print(INSECURE_WARNING.format(where=", ".join(listen), who=who), file=sys.stderr)
         return Endpoints(mode=args.mode, listen=listen, connect=args.connect)
     listen = args.listen or ["tls/0.0.0.0:7447"]
     plain = [ep for ep in listen if not ep.startswith("tls/")]
@@ -649,10 +663,10 @@ def _robots(args) -> int:
     extra = Security("host", args.secure).zenoh_settings(args.run_id) if args.secure else {}
     extra = {**lease_settings(), **extra}  # the lease of the default watchdog_s (2·10 + 5 s)
     endpoints = Endpoints(mode=args.mode, connect=args.connect, extra=extra)
-    if not args.secure and not os.environ.get(RUN_SECRET_ENV):
-        print(f"warning: no --secure and no {RUN_SECRET_ENV}: the join reply and so this host's downlink are not "
-              f"authenticated; anyone who reaches {', '.join(args.connect)} can feed it false inputs "
-              "(see docs/security.md)", file=sys.stderr)
+    if not args.secure and not os.environ.get(RUN_SECRET_ENV) and not all(loopback(ep) for ep in args.connect):
+        # on this machine the world's own warning said it already
+        print(f"warning: running without --secure: this host trusts whoever answers at {', '.join(args.connect)} "
+              f"(or set {RUN_SECRET_ENV}; docs/security.md)", file=sys.stderr)
     say = (lambda _line: None) if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     try:
         host = asyncio.run(serve_host(endpoints, args.run_id, args.count, args.allow, wait=args.wait, say=say,
