@@ -343,32 +343,46 @@ def _run_on(args, sc: dict, err: Console, out_dir: Path, endpoints: Endpoints, r
         from swarmactors.see import view_session
 
         session = view_session(args)
+    codes: list[int] = []
+
+    def finish(result) -> None:  # while the world's session is open: robots hosts wait for it (run_world)
+        progress.__exit__()
+        codes.append(_finish(args, sc, result, out_dir, err))
+
     with progress:
         if session is not None:
             result = session.run(sc, out_dir, endpoints, run_id, sc["run"]["processes"], local, progress.on_tick)
         else:
             result = asyncio.run(run_world(sc, out_dir, endpoints, run_id, processes=sc["run"]["processes"],
-                                           local_host=local, on_tick=progress.on_tick, return_on_signal=True))
+                                           local_host=local, on_tick=progress.on_tick, return_on_signal=True,
+                                           on_result=finish))
+    if not codes:
+        codes.append(_finish(args, sc, result, out_dir, err))
+    if session is not None:
+        session.linger()  # the page shows the run's trace until Ctrl-C
+    return codes[0]
+
+
+def _finish(args, sc: dict, result, out_dir: Path, err: Console) -> int:
+    """After a run: the summary table, then the pictures and the files written; the exit code."""
     code, reason = run_exit(result.data)
-    files = [p.name for p in (out_dir / "result.json", result.trace_path) if p is not None and p.exists()]
-    if not args.no_plots and result["ticks"] > 0:  # a signal while they are drawn skips the rest (_plots)
-        files += _plots(result, sc, out_dir, err)
     if args.json:
         print(json.dumps({**{k: result.data[k] for k in ("run_id", "ticks", "wall_s", "trace_hash", "world",
                                                           "metrics", "checks", "interrupted")},
                           "exit": int(code), "outcome": reason}))
     elif not args.quiet:
         _wide(err).print(summary_table(result.data))
-        # plain lines, never wrapped: a path must survive a copy and paste
-        print(f"output: {out_dir}", file=sys.stderr)
-        print(f"files: {', '.join(files)}", file=sys.stderr)
     if args.quiet and code != EXIT_OK:  # one line, whatever else was asked
         print(f"{sc['run']['name']}: {reason} (exit {int(code)}; {out_dir / 'result.json'})", file=sys.stderr)
     if args.verbose:
         for text in crash_tracebacks(result.data["robots"]):
             print(text, file=sys.stderr)
-    if session is not None:
-        session.linger()  # the page shows the run's trace until Ctrl-C
+    files = [p.name for p in (out_dir / "result.json", result.trace_path) if p is not None and p.exists()]
+    if not args.no_plots and result["ticks"] > 0:  # a signal while they are drawn skips the rest (_plots)
+        files += _plots(result, sc, out_dir, err)
+    if not args.json and not args.quiet:  # plain lines, never wrapped: a path must survive a copy and paste
+        print(f"output: {out_dir}", file=sys.stderr)
+        print(f"files: {', '.join(files)}", file=sys.stderr)
     return int(code)
 
 
@@ -402,19 +416,21 @@ def _plots(result, sc: dict, out_dir: Path, err: Console) -> list[str]:
 
 @contextlib.contextmanager
 def _signals_interrupt_plots():
-    """SIGTERM raises KeyboardInterrupt inside (as SIGINT does), so drawing stops and the summary is printed."""
+    """SIGINT and SIGTERM raise KeyboardInterrupt inside (whatever handled them before), so drawing stops."""
     def stop(_signum, _frame):
         raise KeyboardInterrupt
 
+    before = {}
     try:
-        before = signal.signal(signal.SIGTERM, stop)
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            before[signum] = signal.signal(signum, stop)
     except ValueError:  # not the main thread
-        before = None
+        pass
     try:
         yield
     finally:
-        if before is not None:
-            signal.signal(signal.SIGTERM, before)
+        for signum, handler in before.items():
+            signal.signal(signum, handler)
 
 
 def loopback(endpoint: str) -> bool:

@@ -25,7 +25,7 @@ from transport import Endpoints, Keys, Link, QueryError, host_loss_s, lease_sett
 log = logging.getLogger(__name__)
 PROGRESS_EVERY_S = 10.0  # a host's progress line, at most this often
 LOG_FORMAT = "%(levelname)s %(name)s: %(message)s"  # the command line's and every host process's log lines
-WORLD_GONE_S = 30.0  # after its run a ``robots`` host waits at most this long for the world to close (serve_host)
+WORLD_GONE_S = 120.0  # after its run a ``robots`` host waits at most this long for the world to close (serve_host)
 
 
 class HostError(RuntimeError):

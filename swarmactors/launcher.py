@@ -118,6 +118,7 @@ async def run_world(
     on_open: Callable[[World, Link], None] | None = None,
     run_secret: bytes | None = None,
     return_on_signal: bool = False,
+    on_result: Callable[[Result], None] | None = None,
 ) -> Result:
     """Run a resolved scenario's world (and, if asked, its hosts) to a Result on disk.
 
@@ -129,6 +130,10 @@ async def run_world(
     the signal goes on to the caller (SIGINT as KeyboardInterrupt, SIGTERM to the handler in force before the
     run), so that a script or a test suite stops as it would have, unless ``return_on_signal`` (the command
     line, which prints the summary and exits 130), which returns the Result with ``Result.signal`` set.
+
+    ``on_result(result)`` runs once result.json is whole, while the world's session (and its liveliness token)
+    is still open: ``robots`` hosts wait for that token to vanish, so docker-compose's
+    ``--abort-on-container-exit`` stops the world only after what ``on_result`` printed (the summary).
     """
     if run_secret is None:
         run_secret = run_secret_from_env() or (new_key() if local_host else None)
@@ -193,13 +198,15 @@ async def run_world(
             finally:
                 writer.close()
                 await asyncio.to_thread(end_hosts, procs, HOSTS_EXIT_S)
-        # the world has its reports: a signal from here on is late and leaves a whole result.json, checks run
-        summary = world.summary()
-        data = assemble(sc, summary, writer, run_id, processes, interrupted is not None)
-        result = write_result(data, out_dir)
-        if interrupted is None and sc["checks"]:
-            result.data["checks"] = judge(result, sc["checks"])
-            result = write_result(result.data, out_dir)
+            # the world has its reports: a signal from here on is late and leaves a whole result.json, checks run
+            summary = world.summary()
+            data = assemble(sc, summary, writer, run_id, processes, interrupted is not None)
+            result = write_result(data, out_dir)
+            if interrupted is None and sc["checks"]:
+                result.data["checks"] = judge(result, sc["checks"])
+                result = write_result(result.data, out_dir)
+            if on_result is not None:
+                on_result(result)
     finally:  # the handlers stay until result.json is written, so no signal can cut it
         for signum in STOP_SIGNALS:
             try:

@@ -39,9 +39,14 @@ class RunProgress:
         return self
 
     def __exit__(self, *exc) -> None:
-        self.progress.stop()
+        """Stop the bar (once: the summary may stop it before the ``with`` block ends)."""
+        if self.task is not None:
+            self.progress.stop()
+            self.task = None
 
     def on_tick(self, world) -> None:
+        if self.task is None:
+            return
         now = time.monotonic()
         if now - self._last < 0.1 and world.tick + 1 < world.ticks:
             return

@@ -85,9 +85,9 @@ FLOOD = '{ use = "flooding", origin = 0, at = 1, expiry = 3 }'
 
 @pytest.fixture
 def project(tmp_path):
-    (tmp_path / "mine.py").write_text(MINE)
+    (tmp_path / "truthmine.py").write_text(MINE)
     yield tmp_path
-    sys.modules.pop("mine", None)
+    sys.modules.pop("truthmine", None)  # a module name of its own: other tests leave their dirs on sys.path
 
 
 def cli(args: list[str], cwd: Path, monkeypatch, capsys) -> tuple[int, str, str]:
@@ -179,7 +179,7 @@ def test_ctrl_c_leaves_every_check_not_run(tmp_path, command):
 
 def test_a_robot_raising_in_on_tick_fails_the_run_in_one_line_and_v_shows_its_traceback(project, monkeypatch,
                                                                                           capsys):
-    (project / "s.toml").write_text(scenario('{ use = "mine:Crash", who = -1 }'))
+    (project / "s.toml").write_text(scenario('{ use = "truthmine:Crash", who = -1 }'))
     code, _, err = cli(["run", "s.toml", "--no-plots", "--out", "o"], project, monkeypatch, capsys)
     assert code == EXIT_CHECK, err
     assert "3 robots crashed" in err and "3 robots crashed (exit 1)" in err
@@ -195,11 +195,11 @@ def test_a_robot_raising_in_on_tick_fails_the_run_in_one_line_and_v_shows_its_tr
     assert [ln for ln in err.splitlines() if ln.startswith("truth:")] == [
         f"truth: 3 robots crashed (exit 1; {Path('v') / 'result.json'})"]
     assert "robots 0-2 crashed with:\nTraceback (most recent call last):" in err
-    assert 'mine.py", line' in err and "ValueError: boom in on_tick" in err
+    assert 'truthmine.py", line' in err and "ValueError: boom in on_tick" in err
 
 
 def test_every_robot_failing_to_build_means_no_robot_ever_ran(project, monkeypatch, capsys):
-    (project / "s.toml").write_text(scenario('{ use = "mine:BadInit" }'))
+    (project / "s.toml").write_text(scenario('{ use = "truthmine:BadInit" }'))
     code, _, err = cli(["run", "s.toml", "--no-plots", "--out", "o"], project, monkeypatch, capsys)
     assert code == EXIT_RUNTIME, err
     assert "none ran: every robot failed before its first step" in err
@@ -219,7 +219,7 @@ def test_robots_the_scenario_kills_do_not_fail_the_run(project, monkeypatch, cap
 @pytest.mark.slow
 def test_crash_lines_are_the_same_with_host_processes(project, monkeypatch, capsys):
     """K = 0 and K = 2: no per-robot log line, the same one summary line (the log format does not depend on K)."""
-    (project / "s.toml").write_text(scenario('{ use = "mine:Crash", who = -1 }'))
+    (project / "s.toml").write_text(scenario('{ use = "truthmine:Crash", who = -1 }'))
     for k in (0, 2):
         proc = swarmactors_proc(["run", "s.toml", "--no-plots", "--quiet", "--processes", str(k), "--out", f"k{k}"],
                                 project)
@@ -235,10 +235,10 @@ def test_crash_lines_are_the_same_with_host_processes(project, monkeypatch, caps
 
 @pytest.mark.slow
 def test_a_host_that_cannot_build_a_module_says_why_at_join_in_one_line(project, tmp_path_factory):
-    (project / "s.toml").write_text(scenario('{ use = "mine:Crash" }'))
+    (project / "s.toml").write_text(scenario('{ use = "truthmine:Crash" }'))
     elsewhere = tmp_path_factory.mktemp("elsewhere")
     cases = [("refused", [], project, "refused_behavior"),  # no --allow
-             ("missing", ["--allow", "mine"], elsewhere, "ModuleNotFoundError")]  # allowed, but not importable
+             ("missing", ["--allow", "truthmine"], elsewhere, "ModuleNotFoundError")]  # allowed, but not importable
     for run_id, allow, cwd, cause in cases:
         endpoint = f"tcp/127.0.0.1:{free_port()}"
         world = swarmactors_proc(["world", "s.toml", "--listen", endpoint, "--mode", "peer", "--run-id", run_id,
@@ -250,11 +250,11 @@ def test_a_host_that_cannot_build_a_module_says_why_at_join_in_one_line(project,
         assert "none ran: every robot failed before its first step" in world_err and cause in world_err
         errors = [ln for ln in host_err.splitlines() if ln.startswith("error:")]
         assert host.returncode == EXIT_INPUT, host_err
-        assert len(errors) == 1 and "'mine:Crash' (robots 0-2)" in errors[0], host_err
+        assert len(errors) == 1 and "'truthmine:Crash' (robots 0-2)" in errors[0], host_err
         if run_id == "refused":
-            assert errors[0].endswith("start the host with --allow mine"), host_err
+            assert errors[0].endswith("start the host with --allow truthmine"), host_err
         else:
-            assert "cannot import" in errors[0] and "the directory that holds mine (.py)" in errors[0], host_err
+            assert "cannot import" in errors[0] and "the directory that holds truthmine (.py)" in errors[0], host_err
 
 
 # ------------------------------------------------------------------------------------------------------------
