@@ -16,7 +16,6 @@ import json
 import os
 import re
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -27,12 +26,11 @@ import pytest
 from rich.console import Console
 
 from swarmactors import cli as cli_module
-from swarmactors.cli import main
 from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME, run_exit
 from swarmactors.progress import metric_rows, summary_table, verdict
 from swarmactors.result import Result
 from swarmactors.suggest import did_you_mean
-from transport.auth import RUN_SECRET_ENV
+from test_newcomer import cli, free_port, swarmactors_proc, tiny  # the newcomer tests' helpers
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -60,23 +58,8 @@ class BadInit(Behavior):
 
 
 def scenario(behaviors: str, ticks: int = 4, extra: str = "", clock: str = "lockstep") -> str:
-    return f"""
-[run]
-name = "truth"
-seed = 5
-ticks = {ticks}
-clock = "{clock}"
-dt = {0.05 if clock == "realtime" else 1.0}
-
-[radio]
-range = 1.0
-latency = 1
-
-[[robots]]
-positions = [[0.0, 0.0], [0.5, 0.0], [1.0, 0.0]]
-behaviors = [{behaviors}]
-{extra}
-"""
+    """Three robots on a line (test_newcomer's ``tiny``); ``extra`` goes at the end (events, checks)."""
+    return tiny(ticks, clock, behaviors, checks=extra, extra="dt = 0.05" if clock == "realtime" else "")
 
 
 FLOOD_CHECK = '\n[[checks]]\nuse = "flooding.reach"\n'
@@ -90,34 +73,10 @@ def project(tmp_path):
     sys.modules.pop("truthmine", None)  # a module name of its own: other tests leave their dirs on sys.path
 
 
-def cli(args: list[str], cwd: Path, monkeypatch, capsys) -> tuple[int, str, str]:
-    """``swarmactors ARGS`` in this process: (exit code, stdout, stderr)."""
-    monkeypatch.chdir(cwd)
-    monkeypatch.setenv("COLUMNS", "200")
-    capsys.readouterr()
-    code = main(args)
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
 def text(table) -> str:
     buf = io.StringIO()
     Console(file=buf, width=250, no_color=True).print(table)
     return buf.getvalue()
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def swarmactors_proc(args: list[str], cwd: Path, secret: str | None = None) -> subprocess.Popen:
-    env = {k: v for k, v in os.environ.items() if k != "COLUMNS"}
-    if secret:
-        env[RUN_SECRET_ENV] = secret
-    return subprocess.Popen([sys.executable, "-m", "swarmactors", *args], cwd=cwd, env=env, text=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
 
 
 def wait_for(path: Path, seconds: float = 60.0) -> None:
@@ -192,8 +151,8 @@ def test_a_robot_raising_in_on_tick_fails_the_run_in_one_line_and_v_shows_its_tr
     code, _, err = cli(["-v", "run", "s.toml", "--no-plots", "--quiet", "--out", "v"], project, monkeypatch,
                        capsys)
     assert code == EXIT_CHECK
-    assert [ln for ln in err.splitlines() if ln.startswith("truth:")] == [
-        f"truth: 3 robots crashed (exit 1; {Path('v') / 'result.json'})"]
+    assert [ln for ln in err.splitlines() if ln.startswith("tiny:")] == [
+        f"tiny: 3 robots crashed (exit 1; {Path('v') / 'result.json'})"]
     assert "robots 0-2 crashed with:\nTraceback (most recent call last):" in err
     assert 'truthmine.py", line' in err and "ValueError: boom in on_tick" in err
 
@@ -225,7 +184,7 @@ def test_crash_lines_are_the_same_with_host_processes(project, monkeypatch, caps
                                 project)
         _, err = proc.communicate(timeout=120)
         assert proc.returncode == EXIT_CHECK, err
-        assert err.splitlines() == [f"truth: 3 robots crashed (exit 1; {Path(f'k{k}') / 'result.json'})"], err
+        assert err.splitlines() == [f"tiny: 3 robots crashed (exit 1; {Path(f'k{k}') / 'result.json'})"], err
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -335,7 +294,7 @@ print("the run returned and the script went on", flush=True)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 def test_a_signal_during_a_python_run_reaches_the_caller_after_result_json(project, sig):
     (project / "s.toml").write_text(scenario('{ use = "beacon" }', ticks=2000, clock="realtime"))
     proc = subprocess.Popen([sys.executable, "-c", CALLER, "s.toml", "o"], cwd=project, text=True,
