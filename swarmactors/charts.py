@@ -10,7 +10,10 @@
 * ``convergence.png`` - for the status field a behaviour colours its robots by
   (``Behavior.plot_field``: flooding's ``hop``, CBAA's ``task``, stigmergy's
   ``keys``, …): the share of alive robots that hold a value, and the share that
-  already hold their final value, over time.
+  already hold their final value, over time. A real-valued field (λ2's ``l2``)
+  is rarely equal to its final value before the end: for it the lower panel
+  shows each robot's distance to its own final value (relative to that value),
+  its median and its maximum over the robots, on a log scale.
 
 The charts use only the trace and the resolved scenario, so they work for every
 protocol family; a family is charted through the status fields it reports.
@@ -259,7 +262,16 @@ def roles(records: list[dict], history: dict[int, dict], path: Path, name: str) 
     return path
 
 
+def is_real_valued(values: list) -> bool:
+    """Numbers of which some are not whole: a field that converges in distance, not in equality."""
+    numbers = [v for v in values if v is not None]
+    return bool(numbers) and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in numbers) and any(
+        isinstance(v, float) and not float(v).is_integer() for v in numbers)
+
+
 def convergence(records: list[dict], history: dict[int, dict], field: str, path: Path, name: str) -> Path:
+    if is_real_valued([v for f in history.values() for _, v in f.get(field, [])]):
+        return convergence_distance(records, history, field, path, name)
     cols = _sampled(records)
     ticks = [records[i]["t"] for i in cols]
     final = {rid: f[field][-1][1] for rid, f in history.items() if field in f}
@@ -279,6 +291,44 @@ def convergence(records: list[dict], history: dict[int, dict], field: str, path:
         ax.set_xlabel("tick")
         ax.set_title(f"{name}: convergence of status field {field!r}")
         ax.legend(loc="best")
+        fig.savefig(path)
+        plt.close(fig)
+    return path
+
+
+def convergence_distance(records: list[dict], history: dict[int, dict], field: str, path: Path, name: str) -> Path:
+    """A real-valued field: the share of robots holding a value, and their distance to their final value.
+
+    A robot's distance at a tick is |v - v_final| / |v_final| (|v - v_final| when its final value is 0); the
+    chart draws the median and the largest over the alive robots that hold a value.
+    """
+    cols = _sampled(records)
+    ticks = [records[i]["t"] for i in cols]
+    final = {rid: float(f[field][-1][1]) for rid, f in history.items()
+             if field in f and isinstance(f[field][-1][1], (int, float))}
+    have, median, worst = [], [], []
+    for i, t in zip(cols, ticks, strict=True):
+        alive = [row[0] for row in records[i].get("pos", [])]
+        vals = {rid: _value_at(history.get(rid, {}).get(field, []), t) for rid in alive}
+        have.append(sum(v is not None for v in vals.values()) / max(len(alive), 1))
+        d = [abs(float(v) - final[rid]) / (abs(final[rid]) or 1.0) for rid, v in vals.items()
+             if isinstance(v, (int, float)) and not isinstance(v, bool) and rid in final]
+        median.append(float(np.median(d)) if d else np.nan)
+        worst.append(max(d) if d else np.nan)
+    with style() as plt:
+        fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 4.8), sharex=True, gridspec_kw={"height_ratios": [1, 2]})
+        a1.step(ticks, have, where="post", color=PALETTE[0], lw=1.5)
+        a1.set_ylim(-0.02, 1.02)
+        a1.set_ylabel(f"robots with\na {field} (share)")
+        a1.set_title(f"{name}: convergence of status field {field!r}")
+        floor = 1e-6  # a robot at its final value: drawn at the floor of the log scale
+        a2.step(ticks, np.maximum(median, floor), where="post", color=PALETTE[1], lw=1.5, label="median over robots")
+        a2.step(ticks, np.maximum(worst, floor), where="post", color=PALETTE[3], lw=1.2, ls="--",
+                label="largest over robots")
+        a2.set_yscale("log")
+        a2.set_ylabel(f"distance of {field} to its\nfinal value (relative)")
+        a2.set_xlabel("tick")
+        a2.legend(loc="best")
         fig.savefig(path)
         plt.close(fig)
     return path

@@ -13,6 +13,8 @@ import contextlib
 import json
 import logging
 import os
+import re
+import signal
 import sys
 from contextlib import nullcontext
 from pathlib import Path
@@ -22,20 +24,18 @@ from rich.console import Console
 from swarmactors import export as export_cli
 from swarmactors import newproject, schedule_cli
 from swarmactors import scenario as scenario_mod
-from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME
-from swarmactors.hosting import HostError, serve_host
+from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME, run_exit
+from swarmactors.hosting import WORLD_GONE_S, HostError, refusal_line, serve_host
 from swarmactors.launcher import new_run_id, private_endpoints, run_dir, run_world, scenario_file, validate_run
 from swarmactors.plugins import BEHAVIORS, PluginError, resolve
-from swarmactors.progress import RunProgress, summary_table
+from swarmactors.progress import RunProgress, crash_tracebacks, summary_table
 from swarmactors.scenario import ScenarioError
 from transport import Endpoints, Keys, Security, ensure_files, lease_settings
 from transport.auth import RUN_SECRET_ENV
 from transport.config import check_endpoint
 
-INSECURE_WARNING = (
-    "warning: running without --secure: anyone who can reach {where} can join this run, publish frames "
-    "as a robot host and read the swarm's traffic (see docs/security.md)"
-)
+INSECURE_WARNING = ("warning: running without --secure on {where}: {who} can join this run, read its traffic "
+                    "and answer its hosts (docs/security.md)")
 
 
 
@@ -113,7 +113,8 @@ def build_parser() -> argparse.ArgumentParser:
     robots.add_argument("--mode", choices=["peer", "client"], default="client")
     robots.add_argument("--secure", type=Path, metavar="DIR", help="directory with ca.pem and host.credential")
     robots.add_argument("--allow", action="append", default=[], metavar="MODULE",
-                        help="a module whose Behavior classes this host may run (repeatable); "
+                        help="a module whose Behavior classes this host may run (repeatable): a scenario's "
+                             "use = \"mine:MyBehavior\" needs --allow mine here (the world cannot grant it); "
                              "registered behaviours are always allowed, nothing else is")
     robots.add_argument("--wait", type=float, default=60.0, metavar="S",
                         help="keep trying to reach and join the world for S seconds, with backoff (default 60, "
@@ -218,6 +219,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except BrokenPipeError:  # stdout went away (``swarmactors list checks | head``): nothing more to say
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
     except Exception as exc:  # the last resort: one line naming the error, the traceback only with -v
         if args.verbose:
             raise
@@ -292,6 +296,16 @@ def _main(args) -> int:
         return EXIT_RUNTIME
 
 
+def _shipped_hint(scenario: str) -> None:
+    """A missing scenario named like a shipped one: say where that one is (outside a checkout, say)."""
+    path = Path(scenario)
+    if path.exists():
+        return
+    same = [p for p in shipped_scenarios() if p.name == path.name or p.stem == path.name]
+    if same:
+        raise UsageError(f"{scenario}: no such file; the shipped scenario of that name is {same[0]}")
+
+
 def _user_modules_importable(scenario: str | None) -> None:
     """Let ``use = "module:Class"`` find modules beside the scenario file and in the current directory."""
     beside = []
@@ -306,6 +320,7 @@ def _user_modules_importable(scenario: str | None) -> None:
 
 
 def _load(args) -> dict:
+    _shipped_hint(args.scenario)
     scenario_file(args.scenario)
     if args.command in ("run", "world") and args.foxglove is not None:
         from swarmactors.see import check_foxglove
@@ -349,42 +364,117 @@ def _run_on(args, sc: dict, err: Console, out_dir: Path, endpoints: Endpoints, r
         from swarmactors.see import view_session
 
         session = view_session(args)  # the web page or the Foxglove feed
+    codes: list[int] = []
+
+    def finish(result) -> None:  # while the world's session is open: robots hosts wait for it (run_world)
+        progress.__exit__()
+        codes.append(_finish(args, sc, result, out_dir, err))
+
     with progress:
         if session is not None:
             result = session.run(sc, out_dir, endpoints, run_id, sc["run"]["processes"], local, progress.on_tick)
         else:
             result = asyncio.run(run_world(sc, out_dir, endpoints, run_id, processes=sc["run"]["processes"],
-                                           local_host=local, on_tick=progress.on_tick))
-    field = _plot_field(sc)
-    if not args.no_plots and (result.trace_path is not None or result["robots"]):
-        try:
-            from swarmactors.plots import plot_run  # matplotlib is slow to import: only when plotting
-
-            plot_run(result, out_dir / "swarm.png", field)
-        except Exception as exc:  # a plot must never cost the run its result
-            err.print(f"[yellow]plot skipped:[/] {exc}")
-    if not args.no_plots and result.trace_path is not None:
-        from swarmactors.see import write_run_charts
-        from swarmactors.trajectories import write_trajectories
-
-        write_run_charts(result, out_dir, field, err)
-        write_trajectories(result, out_dir, err)
-    if args.json:
-        print(json.dumps({k: result.data[k] for k in ("run_id", "ticks", "wall_s", "trace_hash", "world",
-                                                     "metrics", "checks", "interrupted")}))
-    elif not args.quiet:
-        err.print(summary_table(result.data, out_dir))
+                                           local_host=local, on_tick=progress.on_tick, return_on_signal=True,
+                                           on_result=finish))
+    if not codes:
+        codes.append(_finish(args, sc, result, out_dir, err))
     if session is not None:
         session.linger()  # the page shows the run's trace until Ctrl-C
-    if result["interrupted"]:
-        return EXIT_INTERRUPTED
-    return EXIT_OK if result.passed else EXIT_CHECK
+    return codes[0]
+
+
+def _finish(args, sc: dict, result, out_dir: Path, err: Console) -> int:
+    """After a run: the summary table, then the pictures and the files written; the exit code."""
+    code, reason = run_exit(result.data)
+    if args.json:
+        print(json.dumps({**{k: result.data[k] for k in ("run_id", "ticks", "wall_s", "trace_hash", "world",
+                                                          "metrics", "checks", "interrupted")},
+                          "exit": int(code), "outcome": reason}))
+    elif not args.quiet:
+        _wide(err).print(summary_table(result.data))
+    if args.quiet and code != EXIT_OK:  # one line, whatever else was asked
+        print(f"{sc['run']['name']}: {reason} (exit {int(code)}; {out_dir / 'result.json'})", file=sys.stderr)
+    if args.verbose:
+        for text in crash_tracebacks(result.data["robots"]):
+            print(text, file=sys.stderr)
+    files = [p.name for p in (out_dir / "result.json", result.trace_path) if p is not None and p.exists()]
+    if not args.no_plots and result["ticks"] > 0:  # a signal while they are drawn skips the rest (_plots)
+        files += _plots(result, sc, out_dir, err)
+    if not args.json and not args.quiet:  # plain lines, never wrapped: a path must survive a copy and paste
+        print(f"output: {out_dir}", file=sys.stderr)
+        print(f"files: {', '.join(files)}", file=sys.stderr)
+    return int(code)
+
+
+def _plots(result, sc: dict, out_dir: Path, err: Console) -> list[str]:
+    """Draw the run's pictures beside result.json; the names of those written.
+
+    SIGINT or SIGTERM while they are drawn (docker-compose stopping the world once its hosts have exited) skip
+    the rest: the summary is still printed and the exit code stays the run's.
+    """
+    written: list[Path] = []
+    field = _plot_field(sc)
+    with _signals_interrupt_plots():
+        try:
+            if result.trace_path is not None or result["robots"]:
+                try:
+                    from swarmactors.plots import plot_run  # matplotlib is slow to import: only when plotting
+
+                    written.append(plot_run(result, out_dir / "swarm.png", field))
+                except Exception as exc:  # a plot must never cost the run its result
+                    err.print(f"[yellow]plot skipped:[/] {exc}")
+            if result.trace_path is not None:
+                from swarmactors.see import write_run_charts
+                from swarmactors.trajectories import write_trajectories
+
+                written += write_run_charts(result, out_dir, field, err)
+                written.append(write_trajectories(result, out_dir, err))
+        except KeyboardInterrupt:
+            err.print("[yellow]pictures skipped:[/] interrupted")
+    return [p.name for p in written if p is not None and p.exists()]
+
+
+@contextlib.contextmanager
+def _signals_interrupt_plots():
+    """SIGINT and SIGTERM raise KeyboardInterrupt inside (whatever handled them before), so drawing stops."""
+    def stop(_signum, _frame):
+        raise KeyboardInterrupt
+
+    before = {}
+    try:
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            before[signum] = signal.signal(signum, stop)
+    except ValueError:  # not the main thread
+        pass
+    try:
+        yield
+    finally:
+        for signum, handler in before.items():
+            signal.signal(signum, handler)
+
+
+def loopback(endpoint: str) -> bool:
+    """A Zenoh endpoint only this machine reaches: a Unix socket, or TCP/UDP/QUIC on a loopback address."""
+    import ipaddress
+
+    proto, _, rest = endpoint.partition("/")
+    if proto.startswith("unixsock"):
+        return True
+    host = rest.rpartition(":")[0].strip("[]")
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
 
 
 def _world_endpoints(args, run_id: str) -> Endpoints:
     if args.secure is None:
         listen = args.listen or ["tcp/0.0.0.0:7447"]
-        print(INSECURE_WARNING.format(where=", ".join(listen)), file=sys.stderr)
+        who = "any local user" if all(loopback(ep) for ep in listen) else "anyone who reaches it"
+        print(INSECURE_WARNING.format(where=", ".join(listen), who=who), file=sys.stderr)
         return Endpoints(mode=args.mode, listen=listen, connect=args.connect)
     listen = args.listen or ["tls/0.0.0.0:7447"]
     plain = [ep for ep in listen if not ep.startswith("tls/")]
@@ -449,9 +539,7 @@ def _check(args, err: Console) -> int:
             table.add_row(name if k == 0 else "", mark if k == 0 else "", check.removeprefix("check "), verdict,
                           str(r.seed) if k == 0 else "", first if k == 0 else "",
                           end_section=k == len(rows) - 1)
-    # not on a terminal (CI logs, a pipe): no 80-column wrapping of names
-    out = err if err.is_terminal else Console(stderr=True, no_color=True, width=400, soft_wrap=True)
-    out.print(table)
+    _wide(err).print(table)
     for r in results:
         if not r.passed:
             for o in r.outcomes:
@@ -470,6 +558,11 @@ def _check(args, err: Console) -> int:
     judged = check_counts([o for r in results for o in r.outcomes])
     print(f"{len(results) - failed} passed, {failed} failed (checks: {judged})", file=sys.stderr)
     return EXIT_OK if failed == 0 else EXIT_CHECK
+
+
+def _wide(err: Console) -> Console:
+    """Where tables go: the terminal, or off a terminal (CI logs, a pipe) a console without 80-column wrapping."""
+    return err if err.is_terminal else Console(stderr=True, no_color=True, width=400, soft_wrap=True)
 
 
 def _wait_for(path: Path, seconds: float) -> None:
@@ -493,32 +586,85 @@ def _plot_field(sc: dict) -> str | None:
 
 
 def _first_line(obj) -> str:
+    """A docstring's first line as plain text (reStructuredText's ``literal`` marks dropped)."""
     doc = (getattr(obj, "__doc__", None) or "").strip()
-    return doc.splitlines()[0] if doc else ""
+    return re.sub(r"``([^`]+)``", r"\1", doc.splitlines()[0]) if doc else ""
 
 
-def shipped_scenarios() -> list[Path]:
-    """The scenario files beside the installed package (a source checkout), then those under ./scenarios."""
-    folders = [Path(__file__).resolve().parents[1] / "scenarios", Path.cwd() / "scenarios"]
-    seen, out = set(), []
-    for folder in folders:
+def scenario_folders() -> list[Path]:
+    """Where ``list scenarios`` looks: the checkout beside the package, ./scenarios, then the installed copy.
+
+    A wheel installs the shipped scenarios under ``<prefix>/share/swarmactors/scenarios`` (pyproject.toml's
+    data-files), the user scheme's prefix too.
+    """
+    import sysconfig
+
+    prefixes = {sysconfig.get_path("data"), sysconfig.get_path("data", f"{os.name}_user")}
+    installed = [Path(p) / "share" / "swarmactors" / "scenarios" for p in sorted(prefixes) if p]
+    return [Path(__file__).resolve().parents[1] / "scenarios", Path.cwd() / "scenarios", *installed]
+
+
+def shipped_scenarios(folders: list[Path] | None = None) -> list[Path]:
+    """The scenario files of ``scenario_folders()``: each file name once, from the first folder that has it."""
+    seen: set[str] = set()
+    out: list[Path] = []
+    for folder in scenario_folders() if folders is None else folders:
         for path in sorted(folder.glob("*.toml")) if folder.is_dir() else []:
-            if path.resolve() not in seen:
-                seen.add(path.resolve())
+            if path.name not in seen:
+                seen.add(path.name)
                 out.append(path)
     return out
+
+
+def scenario_family(path: Path) -> str:
+    """The protocol family whose behaviours a scenario runs (``-`` for none, ``a+b`` for several)."""
+    import tomllib
+
+    from swarmactors.plugins import available
+
+    try:
+        raw = tomllib.loads(path.read_text(errors="replace"))
+    except (OSError, ValueError):
+        return "?"
+    behaviors = available(BEHAVIORS)  # name -> "module:attr", nothing imported
+    families = {ref.partition(":")[0].rpartition(".")[0]: name
+                for name, ref in available("swarmactors.families").items()}
+    found: list[str] = []
+    for group in raw.get("robots", []) if isinstance(raw.get("robots"), list) else []:
+        for spec in group.get("behaviors", []) if isinstance(group, dict) else []:
+            use = spec.get("use", "") if isinstance(spec, dict) else ""
+            ref = behaviors.get(use, use)
+            family = families.get(ref.partition(":")[0].rpartition(".")[0])
+            if family and family not in found:
+                found.append(family)
+    return "+".join(found) or "-"
+
+
+def _scenario_description(path: Path) -> str:
+    """A scenario file's description: the first line of its leading comment."""
+    for line in path.read_text(errors="replace").splitlines():
+        if not line.startswith("#"):
+            return ""
+        text = line.lstrip("#").strip()
+        if text:
+            return text
+    return ""
 
 
 def _list(what: str) -> int:
     """``swarmactors list behaviors|checks|families|scenarios``: names and one-line descriptions."""
     from swarmactors.plugins import CHECKS, PluginError, available
 
-    rows: list[tuple[str, str]] = []
+    rows: list[tuple[str, ...]] = []
     if what == "scenarios":
-        for path in shipped_scenarios():
-            lines = path.read_text(errors="replace").splitlines()
-            comment = next((ln.lstrip("# ").strip() for ln in lines if ln.startswith("#")), "")
-            rows.append((_shown_path(path), comment))
+        paths = shipped_scenarios()
+        if not paths:
+            where = ", ".join(str(f) for f in scenario_folders())
+            print(f"error: no scenario files found (looked in {where}); reinstall swarmactors, or run "
+                  "from a checkout of its repository", file=sys.stderr)
+            return EXIT_RUNTIME
+        rows = sorted(((scenario_family(p), _shown_path(p), _scenario_description(p)) for p in paths),
+                      key=lambda r: (r[0] == "-", r[0], r[1]))
     else:
         group = {"behaviors": BEHAVIORS, "checks": CHECKS, "families": "swarmactors.families"}[what]
         for name in sorted(available(group)):
@@ -530,9 +676,9 @@ def _list(what: str) -> int:
             if what == "families":
                 obj = sys.modules[obj.suite.__module__.rpartition(".")[0]]  # the family's package docstring
             rows.append((name, _first_line(obj)))
-    width = max((len(n) for n, _ in rows), default=0)
-    for name, text in rows:
-        print(f"{name:<{width}}  {text}".rstrip())
+    widths = [max((len(r[i]) for r in rows), default=0) for i in range(len(rows[0]) - 1)] if rows else []
+    for row in rows:
+        print("  ".join([*(f"{c:<{w}}" for c, w in zip(row, widths, strict=False)), row[-1]]).rstrip())
     return EXIT_OK
 
 
@@ -554,17 +700,21 @@ def _robots(args) -> int:
     extra = Security("host", args.secure).zenoh_settings(args.run_id) if args.secure else {}
     extra = {**lease_settings(), **extra}  # the lease of the default watchdog_s (2·10 + 5 s)
     endpoints = Endpoints(mode=args.mode, connect=args.connect, extra=extra)
-    if not args.secure and not os.environ.get(RUN_SECRET_ENV):
-        print(f"warning: no --secure and no {RUN_SECRET_ENV}: the join reply and so this host's downlink are not "
-              f"authenticated; anyone who reaches {', '.join(args.connect)} can feed it false inputs "
-              "(see docs/security.md)", file=sys.stderr)
+    if not args.secure and not os.environ.get(RUN_SECRET_ENV) and not all(loopback(ep) for ep in args.connect):
+        # on this machine the world's own warning said it already
+        print(f"warning: running without --secure: this host trusts whoever answers at {', '.join(args.connect)} "
+              f"(or set {RUN_SECRET_ENV}; docs/security.md)", file=sys.stderr)
     say = (lambda _line: None) if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     try:
-        asyncio.run(serve_host(endpoints, args.run_id, args.count, args.allow, wait=args.wait, say=say))
+        host = asyncio.run(serve_host(endpoints, args.run_id, args.count, args.allow, wait=args.wait, say=say,
+                                      refuse=lambda line: print(f"error: {line}", file=sys.stderr, flush=True),
+                                      linger=WORLD_GONE_S))
     except HostError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_RUNTIME
-    return EXIT_OK
+    if refusal_line(host):
+        return EXIT_INPUT  # this host lacked an --allow, or was started where a scenario's module is not
+    return EXIT_CHECK if any(r.error for r in host.robots.values()) else EXIT_OK
 
 
 if __name__ == "__main__":

@@ -149,7 +149,8 @@ def iter_frame_rows(records: Iterable[dict], within: int | None = None) -> Itera
     A delivery or drop names its frame by (src, seq) only, so the kind, size and send tick of each frame sent
     are kept until no row can name it any more: ``within`` ticks after its send (lockstep: ``radio.latency``;
     deliveries, and drops of receivers that died meanwhile, come exactly that many ticks after the send, other
-    drops at it), or to the end of the run when ``within`` is None (realtime).
+    drops at it), or to the end of the run when ``within`` is None (realtime). A tick's frames sent are known
+    before its deliveries are written: in realtime a frame is often delivered within the tick it was sent.
     """
     meta: dict[tuple[int, int], tuple] = {}
     sent_at: deque = deque()  # (send tick, [(src, seq), ...]) oldest first, when frames are forgotten
@@ -158,6 +159,8 @@ def iter_frame_rows(records: Iterable[dict], within: int | None = None) -> Itera
         while within is not None and sent_at and sent_at[0][0] < t - within:
             for key in sent_at.popleft()[1]:
                 meta.pop(key, None)
+        for src, seq, kind, _dst, size in rec.get("sent", ()):
+            meta[src, seq] = (kind, size, t)
         for src, seq, dst, sent_tick in rec.get("del", ()):
             kind, size, _ = meta.get((src, seq), (None, None, None))
             yield {"tick": t, "src": src, "seq": seq, "kind": kind, "dst": dst, "size": size,
@@ -167,7 +170,6 @@ def iter_frame_rows(records: Iterable[dict], within: int | None = None) -> Itera
             yield {"tick": t, "src": src, "seq": seq, "kind": kind, "dst": dst, "size": size,
                    "outcome": "overheard", "sent_tick": sent_tick}
         for src, seq, kind, dst, size in rec.get("sent", ()):
-            meta[src, seq] = (kind, size, t)
             yield {"tick": t, "src": src, "seq": seq, "kind": kind, "dst": dst, "size": size,
                    "outcome": "sent", "sent_tick": t}
         if within is not None and rec.get("sent"):

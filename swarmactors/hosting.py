@@ -11,6 +11,7 @@ import asyncio
 import dataclasses
 import gc
 import logging
+import re
 import signal
 import sys
 import time
@@ -23,6 +24,8 @@ from transport import Endpoints, Keys, Link, QueryError, host_loss_s, lease_sett
 
 log = logging.getLogger(__name__)
 PROGRESS_EVERY_S = 10.0  # a host's progress line, at most this often
+LOG_FORMAT = "%(levelname)s %(name)s: %(message)s"  # the command line's and every host process's log lines
+WORLD_GONE_S = 120.0  # after its run a ``robots`` host waits at most this long for the world to close (serve_host)
 
 
 class HostError(RuntimeError):
@@ -36,7 +39,7 @@ def host_process(endpoint: str, run_id: str, count: int | None, allow: tuple[str
     SIGINT is ignored: Ctrl-C reaches the whole process group, and the world ends the run, asking this host
     for its robots' reports first (a host killed by the same Ctrl-C would lose them).
     """
-    logging.basicConfig(level=logging.WARNING)
+    logging.basicConfig(level=logging.WARNING, format=LOG_FORMAT)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     endpoints = Endpoints(mode="peer", connect=[endpoint], extra=lease_settings(watchdog_s))
     try:
@@ -47,12 +50,18 @@ def host_process(endpoint: str, run_id: str, count: int | None, allow: tuple[str
 
 
 async def serve_host(endpoints: Endpoints, run_id: str, count: int | None, allow: Collection[str] = (),
-                     wait: float = 60.0, say: Callable[[str], None] | None = None) -> None:
-    """Join run ``run_id`` through ``endpoints`` and run robots until the world stops.
+                     wait: float = 60.0, say: Callable[[str], None] | None = None,
+                     refuse: Callable[[str], None] | None = None, linger: float = 0.0) -> RobotHost:
+    """Join run ``run_id`` through ``endpoints`` and run robots until the world stops; return the host.
 
     ``allow``: modules whose Behavior subclasses the host may build, beside the registered entry points.
     A host may start before its world: it retries with backoff for ``wait`` seconds, then raises HostError.
     ``say`` gets one line at a time: joined, the robots claimed, progress every PROGRESS_EVERY_S, a summary.
+    ``refuse`` gets one line at join when the host refused the behaviour of some of its robots, naming the
+    ``--allow`` that would have let it build them (those robots fail as ``refused_behavior``; the run goes on).
+    After the run the host waits (at most ``linger`` seconds: ``swarmactors robots`` gives WORLD_GONE_S) until the
+    world has closed, so that ``docker-compose up --abort-on-container-exit`` stops the world only once it has
+    every host's reports (the hosts ``run`` spawns do not wait: the world ends them).
     """
     say = say or (lambda _line: None)
     where = ", ".join(endpoints.connect) or "the local session"
@@ -72,6 +81,9 @@ async def serve_host(endpoints: Endpoints, run_id: str, count: int | None, allow
         else:
             say(f"joined run {run_id!r} at {where} as host {host.name} ({info.clock}, {info.ticks} ticks): "
                 f"robots {id_ranges(ids)} ({len(ids)})")
+        line = refusal_line(host)
+        if line and refuse is not None:
+            refuse(line)
         started = time.monotonic()
         reporter = asyncio.create_task(_report_progress(host, say))
         try:
@@ -82,11 +94,61 @@ async def serve_host(endpoints: Endpoints, run_id: str, count: int | None, allow
             raise HostError(f"lost the world of run {run_id!r} at {where} at tick {host.tick}: {exc}") from None
         finally:
             reporter.cancel()
+        if linger and not host.gone:
+            await until_world_closes(link, Keys(run_id), linger)
         if host.gone:
             limit = host_loss_s(host.run_info.watchdog_s)
             raise HostError(f"the world of run {run_id!r} at {where} lost this host at tick {host.tick} "
                             f"(silent longer than 2·watchdog_s + 5 = {limit:g} s); its robots are gone")
         say(host_summary(host, time.monotonic() - started))
+    return host
+
+
+_NOT_ALLOWED = re.compile(r"refused behaviour '([^']+)': not a registered behaviour nor in a module this host allows")
+_NOT_IMPORTABLE = re.compile(r"PluginError: cannot import '([^']+)' for '([^']+)': ModuleNotFoundError")
+
+
+def refusal_line(host: RobotHost) -> str | None:
+    """One line for the robots whose behaviour this host could not build for want of an option or a module.
+
+    A ``module:Class`` outside the allowlist needs ``--allow MODULE``; an allowed module the host cannot import
+    needs the host started where the module is (its directory, or ``PYTHONPATH``).
+    """
+    refused: dict[str, list[int]] = {}
+    missing: dict[str, list[int]] = {}
+    for rid, robot in sorted(host.robots.items()):
+        error = robot.error or ""
+        if m := _NOT_ALLOWED.match(error):
+            refused.setdefault(m.group(1), []).append(rid)
+        elif m := _NOT_IMPORTABLE.match(error):
+            missing.setdefault(m.group(2), []).append(rid)
+    parts = []
+    if refused:
+        what = "; ".join(f"{use!r} (robots {id_ranges(ids)})" for use, ids in refused.items())
+        modules = sorted({use.partition(":")[0] for use in refused})
+        parts.append(f"this host refused {what}: neither a registered behaviour nor in a module it allows, so "
+                     f"those robots fail; start the host with {' '.join(f'--allow {m}' for m in modules)}")
+    if missing:
+        what = "; ".join(f"{use!r} (robots {id_ranges(ids)})" for use, ids in missing.items())
+        modules = sorted({use.partition(":")[0] for use in missing})
+        parts.append(f"this host cannot import {what}, so those robots fail; start the host in the directory "
+                     f"that holds {', '.join(m.replace('.', '/') for m in modules)} (.py), or put that directory "
+                     "on PYTHONPATH")
+    return "; ".join(parts) or None
+
+
+async def until_world_closes(link: Link, keys: Keys, within_s: float) -> None:
+    """Wait until the world's liveliness token vanishes (it closes once it has every host's reports), or ``within_s``.
+
+    The token is seen first (the subscription's history); if it is not there within a second, the world is gone.
+    """
+    seen, gone = asyncio.Event(), asyncio.Event()
+    link.watch_liveliness(keys.world_alive, lambda _key, alive: (seen if alive else gone).set())
+    try:
+        await asyncio.wait_for(seen.wait(), 1.0)
+        await asyncio.wait_for(gone.wait(), within_s)
+    except TimeoutError:
+        pass
 
 
 async def open_link(endpoints: Endpoints, deadline: float, where: str) -> Link:
@@ -150,13 +212,17 @@ async def _report_progress(host: RobotHost, say: Callable[[str], None]) -> None:
 
 def host_summary(host: RobotHost, wall_s: float) -> str:
     """One line at the end of a host: ticks, frames, robots alive, crashed robots with their error."""
-    crashed = {rid: r.error for rid, r in sorted(host.robots.items()) if r.error}
+    crashed: dict[str, list[int]] = {}  # the first line of the error -> the robots that crashed with it
+    for rid, r in sorted(host.robots.items()):
+        if r.error:
+            crashed.setdefault(r.error.splitlines()[0], []).append(rid)
     alive = sum(r.alive for r in host.robots.values())
     line = (f"host {host.name} done: {max(host.tick, 0) + 1 if host.robots else 0} ticks in {wall_s:.1f} s, "
             f"frames sent {_frames_sent(host)}, {len(host.robots)} robots ({alive} alive)")
     if crashed:
-        first = "; ".join(f"{rid}: {err.splitlines()[0]}" for rid, err in list(crashed.items())[:3])
-        line += f", {len(crashed)} crashed ({first}{'; ...' if len(crashed) > 3 else ''})"
+        first = "; ".join(f"{id_ranges(ids)}: {err}" for err, ids in list(crashed.items())[:3])
+        n = sum(len(ids) for ids in crashed.values())
+        line += f", {n} crashed ({first}{'; ...' if len(crashed) > 3 else ''})"
     return line
 
 

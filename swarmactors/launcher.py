@@ -117,25 +117,42 @@ async def run_world(
     on_tick: Callable[[WorldSession], None] | None = None,
     on_open: Callable[[WorldSession, Link], None] | None = None,
     run_secret: bytes | None = None,
+    return_on_signal: bool = False,
+    on_result: Callable[[Result], None] | None = None,
 ) -> Result:
     """Run a resolved scenario's world (and, if asked, its hosts) to a Result on disk.
 
     ``run_secret`` seals the join replies (transport.auth); default: ``SWARMACTORS_RUN_SECRET`` if set, else a
     fresh one when this run starts its own hosts (``local_host``), which get it through the environment.
+
+    SIGINT and SIGTERM end the run (``interrupted``, checks not run); one that comes once the world has its
+    robots' reports leaves the run whole and its checks run. Either way result.json is written first; then
+    the signal goes on to the caller (SIGINT as KeyboardInterrupt, SIGTERM to the handler in force before the
+    run), so that a script or a test suite stops as it would have, unless ``return_on_signal`` (the command
+    line, which prints the summary and exits 130), which returns the Result with ``Result.signal`` set.
+
+    ``on_result(result)`` runs once result.json is whole, while the world's session (and its liveliness token)
+    is still open: ``robots`` hosts wait for that token to vanish, so docker-compose's
+    ``--abort-on-container-exit`` stops the world only after what ``on_result`` printed (the summary).
     """
     if run_secret is None:
         run_secret = run_secret_from_env() or (new_key() if local_host else None)
     loop = asyncio.get_running_loop()
     interrupted: str | None = None  # the signal that ended the run, if one did
+    late: str | None = None  # a signal that came after the world had its reports: the run is whole
     world: WorldSession | None = None
 
     def interrupt(name: str) -> None:
         """SIGINT and SIGTERM end the run the same way; one that comes before the world exists stops it at once."""
-        nonlocal interrupted
+        nonlocal interrupted, late
+        if world is not None and world.finished:
+            late = late or name
+            return
         interrupted = name
         if world is not None:
             world.request_stop(f"interrupted ({name})", interrupted=True)
 
+    previous = {signum: signal.getsignal(signum) for signum in STOP_SIGNALS}
     for signum, name in STOP_SIGNALS.items():  # installed before anything is written (SIGTERM: docker stop)
         try:
             loop.add_signal_handler(signum, interrupt, name)
@@ -181,23 +198,34 @@ async def run_world(
             finally:
                 writer.close()
                 await asyncio.to_thread(end_hosts, procs, HOSTS_EXIT_S)
-        # a signal from here on still leaves a whole result.json (marked interrupted, checks not run)
-        summary = world.summary()
-        data = assemble(sc, summary, writer, run_id, processes, interrupted is not None)
-        result = write_result(data, out_dir)
-        if interrupted is None and sc["checks"]:
-            result.data["checks"] = judge(result, sc["checks"])
-            result = write_result(result.data, out_dir)
-        if interrupted is not None and not result["interrupted"]:  # the signal came while the result was written
-            result.data["interrupted"] = True
-            result = write_result(result.data, out_dir)
-        return result
+            # the world has its reports: a signal from here on is late and leaves a whole result.json, checks run
+            summary = world.summary()
+            data = assemble(sc, summary, writer, run_id, processes, interrupted is not None)
+            result = write_result(data, out_dir)
+            if interrupted is None and sc["checks"]:
+                result.data["checks"] = judge(result, sc["checks"])
+                result = write_result(result.data, out_dir)
+            if on_result is not None:
+                on_result(result)
     finally:  # the handlers stay until result.json is written, so no signal can cut it
         for signum in STOP_SIGNALS:
             try:
                 loop.remove_signal_handler(signum)
+                if previous[signum] is not None:
+                    signal.signal(signum, previous[signum])
             except (RuntimeError, ValueError):
                 pass
+    result.signal = interrupted or late
+    if result.signal and not return_on_signal:
+        pass_on(result.signal)
+    return result
+
+
+def pass_on(name: str) -> None:
+    """Deliver a signal that a run caught to whoever handled it before: SIGINT as KeyboardInterrupt."""
+    if name == "SIGINT":
+        raise KeyboardInterrupt
+    signal.raise_signal(signal.SIGTERM)
 
 
 def trace_mode(value: bool | str) -> str:
@@ -280,6 +308,10 @@ def fixed_hash_seed():
             os.environ["PYTHONHASHSEED"] = previous
 
 
+# what a host reports of a robot beside its behaviours' reports, and the robot entry's field for it
+REPORT_FIELDS = {"_error": "error", "_log": "log", "_traceback": "traceback", "_started": "started"}
+
+
 def assemble(sc: dict, summary: dict, writer: TraceWriter, run_id: str, processes: int, interrupted: bool) -> dict:
     """The result.json document (checks are added after it is on disk)."""
     robots = {}
@@ -287,12 +319,7 @@ def assemble(sc: dict, summary: dict, writer: TraceWriter, run_id: str, processe
         entry = dict(info)
         rep = summary["reports"].get(rid, {})
         for name, value in rep.items():
-            if name == "_error":
-                entry["error"] = value
-            elif name == "_log":
-                entry["log"] = value
-            else:
-                entry[name] = value
+            entry[REPORT_FIELDS.get(name, name)] = value
         if info["failed"] and info["failed"].get("error") and "error" not in entry:
             entry["error"] = info["failed"]["error"]
         robots[rid] = entry

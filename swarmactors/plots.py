@@ -4,6 +4,11 @@ Drawn to scale with the swarm: all links are one ``LineCollection`` and all robo
 (with / without the field, failed), so 10,000 robots take about as long as 50 (docs/benchmarks.md). Ids are
 written only when they can be read (N <= ``LABEL_MAX`` or ``labels=True``). A status field whose values are
 strings or booleans gets a categorical legend; a numeric one a colour bar.
+
+What the robots work on is drawn too: the world's objects (SECS's tasks) as diamonds, and the points a
+behaviour names in its parameters (``Behavior.plot_marks``: CBAA's ``tasks``, Swarm Relays' ``targets``) as
+numbered stars. When the status field holds an index into those points (CBAA's ``task``), robots and points
+share a colour per point and each robot is joined to its point by a dashed line.
 """
 
 from __future__ import annotations
@@ -97,6 +102,8 @@ def plot_run(result: Result, path: Path, field: str | None = None, tick: int | N
     values = {rid: robots[rid].get("status", {}).get(field) for rid in pos if rid in robots} if field else {}
     dead = {rid: robots[rid]["pose"][:2] for rid, r in robots.items() if not r["alive"]}
     title = f"{result['scenario']['run']['name']} at tick {t}: links and {field or 'positions'}"
+    marks = {"objects": {name: p[:2] for name, p in (result.data.get("objects") or {}).items()},
+             **scenario_marks(result["scenario"])}
     world = result["scenario"].get("world") or {}
     space = None
     if world.get("obstacles") or world.get("map") or any(g.get("body_radius") or g.get("kind") == "flying"
@@ -105,7 +112,25 @@ def plot_run(result: Result, path: Path, field: str | None = None, tick: int | N
         space = {"world": world, "full": full,
                  "radius": {rid: r.get("body_radius", 0.0) for rid, r in _robot_specs(result).items()},
                  "flying": {rid for rid, r in _robot_specs(result).items() if r.get("kind") == "flying"}}
-    return draw_swarm(path, pos, edges, field, values, dead, title, labels, space)
+    return draw_swarm(path, pos, edges, field, values, dead, title, labels, space, marks)
+
+
+def scenario_marks(sc: dict) -> dict[str, list]:
+    """The points the scenario's behaviours work on (``Behavior.plot_marks``): label -> points, in order."""
+    from swarmactors.plugins import BEHAVIORS, PluginError, resolve
+
+    out: dict[str, list] = {}
+    for g in sc.get("robots", []):
+        for spec in g.get("behaviors", []):
+            try:
+                cls = resolve(BEHAVIORS, spec["use"])
+            except PluginError:
+                continue
+            for param, label in (getattr(cls, "plot_marks", None) or {}).items():
+                points = spec.get(param)
+                if isinstance(points, list) and label not in out:
+                    out[label] = [list(p)[:2] for p in points if isinstance(p, (list, tuple)) and len(p) >= 2]
+    return out
 
 
 def _robot_specs(result: Result) -> dict[int, dict]:
@@ -120,7 +145,7 @@ def _robot_specs(result: Result) -> dict[int, dict]:
 
 def draw_swarm(path: Path, pos: dict[int, tuple], edges: list[tuple[int, int]], field: str | None = None,
                values: dict[int, object] | None = None, dead: dict[int, tuple] | None = None, title: str = "",
-               labels: bool | None = None, space: dict | None = None) -> Path:
+               labels: bool | None = None, space: dict | None = None, marks: dict | None = None) -> Path:
     """Draw robots at ``pos`` (id -> (x, y)), ``edges`` between them, coloured by ``values`` of ``field``.
 
     Args:
@@ -133,6 +158,8 @@ def draw_swarm(path: Path, pos: dict[int, tuple], edges: list[tuple[int, int]], 
         title: the axes' title.
         labels: write ids; default only when ``len(pos) <= LABEL_MAX``.
         space: obstacles, bodies and flying robots to draw (plot_run builds it; swarmactors.draw_space).
+        marks: ``{"objects": {name: (x, y)}, label: [(x, y), ...]}``: world objects and the behaviours' points;
+            a status ``field`` equal to a label indexes that label's points.
 
     Returns:
         ``path``.
@@ -154,7 +181,15 @@ def draw_swarm(path: Path, pos: dict[int, tuple], edges: list[tuple[int, int]], 
     lack = [rid for rid in pos if values.get(rid) is None]
     handles = []
     colorbar = False
-    if have:
+    marks = marks or {}
+    indexed = marks.get(field) if field else None  # the field indexes these points (CBAA's task)
+    extra_points = [p for name, pts in marks.items() if name != "objects" for p in pts]
+    extra_points += list((marks.get("objects") or {}).values())
+    if indexed:  # a value that indexes no point is drawn as no value
+        good = [r for r in have if type(values[r]) is int and 0 <= values[r] < len(indexed)]
+        lack += [r for r in have if r not in good]
+        handles += _draw_indexed(ax, pos, values, good, indexed, field, size, edge_kw)
+    elif have:
         xy = np.array([pos[r] for r in have], dtype=float)
         vals = [values[r] for r in have]
         if is_categorical(vals):
@@ -168,6 +203,14 @@ def draw_swarm(path: Path, pos: dict[int, tuple], edges: list[tuple[int, int]], 
                             zorder=3, **edge_kw)
             fig.colorbar(sc, ax=ax, label=field)
             colorbar = True
+    for label, pts in marks.items():
+        if label not in ("objects", field) and pts:
+            handles += _draw_points(ax, pts, label)
+    for name, p in (marks.get("objects") or {}).items():
+        ax.scatter([p[0]], [p[1]], marker="D", c="#f1a340", s=70, edgecolors="k", zorder=5)
+        ax.annotate(name, (p[0], p[1]), xytext=(5, 5), textcoords="offset points", fontsize=8)
+    if marks.get("objects"):
+        handles.append(Line2D([], [], marker="D", ls="", color="#f1a340", markeredgecolor="k", label="object"))
     if lack:
         xy = np.array([pos[r] for r in lack], dtype=float)
         ax.scatter(xy[:, 0], xy[:, 1], c="white", s=size, zorder=3, **({"edgecolors": "0.4"} | edge_kw))
@@ -180,12 +223,12 @@ def draw_swarm(path: Path, pos: dict[int, tuple], edges: list[tuple[int, int]], 
     if labels if labels is not None else n <= LABEL_MAX:
         write_ids(ax, pos)
     if handles:
-        title = field if field and len(handles) > 1 else None
+        legend_title = field if field and len(handles) > 1 else None
         if colorbar:  # the colour bar holds the right side: the legend goes under the x label
-            ax.legend(handles=handles, title=title, loc="upper center", bbox_to_anchor=(0.5, -0.1),
+            ax.legend(handles=handles, title=legend_title, loc="upper center", bbox_to_anchor=(0.5, -0.1),
                       ncol=min(len(handles), 4), fontsize=8, frameon=False)
         else:
-            ax.legend(handles=handles, title=title, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8,
+            ax.legend(handles=handles, title=legend_title, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8,
                       frameon=False)
     extra = []
     if space:  # obstacles and maps under the robots, bodies to scale, flying robots marked (draw_space)
@@ -195,7 +238,7 @@ def draw_swarm(path: Path, pos: dict[int, tuple], edges: list[tuple[int, int]], 
         draw_bodies(ax, pos, space["radius"])
         draw_flying(ax, space["full"] or pos, space["flying"], size, n <= LABEL_MAX)
         extra = space_extent(space["world"])
-    _limits(ax, [*pos.values(), *dead.values(), *extra])
+    _limits(ax, [*pos.values(), *dead.values(), *extra, *extra_points])
     ax.set_aspect("equal")
     ax.set_xlabel("x (length units)")
     ax.set_ylabel("y (length units)")
@@ -204,6 +247,38 @@ def draw_swarm(path: Path, pos: dict[int, tuple], edges: list[tuple[int, int]], 
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+def _draw_points(ax, points: list, label: str) -> list:
+    """A behaviour's points (Swarm Relays' targets) as numbered stars; the legend handle."""
+    xy = np.asarray(points, dtype=float)
+    ax.scatter(xy[:, 0], xy[:, 1], marker="*", c="#e15759", s=160, edgecolors="k", linewidths=0.6, zorder=5)
+    for i, p in enumerate(xy):
+        ax.annotate(f"{label} {i}", (p[0], p[1]), xytext=(6, 4), textcoords="offset points", fontsize=8)
+    return [Line2D([], [], marker="*", ls="", color="#e15759", markeredgecolor="k", markersize=11, label=label)]
+
+
+def _draw_indexed(ax, pos: dict, values: dict, have: list, points: list, field: str, size: float,
+                  edge_kw: dict) -> list:
+    """Robots (``have``: a valid index) coloured by the point their ``field`` indexes, a dashed line to it."""
+    cmap = category_cmap([str(i) for i in range(len(points))]) if len(points) <= 20 else plt.get_cmap("hsv")
+
+    def colour(i):
+        return cmap(i % 20) if len(points) <= 20 else cmap(i / len(points))
+
+    xy = np.asarray(points, dtype=float)
+    for i, p in enumerate(xy):
+        ax.scatter([p[0]], [p[1]], marker="*", color=colour(i), s=170, edgecolors="k", linewidths=0.6, zorder=5)
+        ax.annotate(f"{field} {i}", (p[0], p[1]), xytext=(6, 4), textcoords="offset points", fontsize=8)
+    for r in have:
+        p = xy[values[r]]
+        ax.plot([pos[r][0], p[0]], [pos[r][1], p[1]], ls="--", lw=0.8, color=colour(values[r]), zorder=2)
+    if have:
+        robots = np.array([pos[r] for r in have], dtype=float)
+        ax.scatter(robots[:, 0], robots[:, 1], c=[colour(values[r]) for r in have], s=size, zorder=3, **edge_kw)
+    return [Line2D([], [], marker="*", ls="", color="0.5", markeredgecolor="k", markersize=11, label=field),
+            Line2D([], [], marker="o", ls="--", color="0.5", markeredgecolor="k",
+                   label=f"robot, to its {field} (same colour)")]
 
 
 def _limits(ax, points: list) -> None:

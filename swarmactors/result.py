@@ -132,6 +132,7 @@ class Result:
     def __init__(self, data: dict, path: Path | None = None):
         self.data = data
         self.path = path
+        self.signal: str | None = None  # "SIGINT" or "SIGTERM" when one came during or after the run (run_world)
 
     @classmethod
     def load(cls, path: str | Path) -> Result:
@@ -193,7 +194,15 @@ class Result:
 
     @property
     def passed(self) -> bool:
-        return all(c["passed"] for c in self.checks)
+        """Every check passed; False for an interrupted run, whose checks did not run."""
+        return not self.data.get("interrupted") and all(c["passed"] for c in self.checks)
+
+    @property
+    def exit_code(self) -> int:
+        """The command line's exit code for this run (``swarmactors.exitcodes.run_exit``: 0, 1, 3 or 130)."""
+        from swarmactors.exitcodes import run_exit
+
+        return int(run_exit(self.data)[0])
 
     def check(self, name: str) -> dict:
         for c in self.checks:

@@ -22,6 +22,7 @@ import numpy as np
 
 from swarmactors.behavior import is_num, params_problem
 from swarmactors.plugins import BEHAVIORS, CHECKS, PluginError, resolve
+from swarmactors.suggest import did_you_mean
 from transport.messages import ACTIONS, action_problem
 
 if TYPE_CHECKING:  # networkx and scipy are imported where used: a robot host imports this module and neither
@@ -196,7 +197,8 @@ def resolve_scenario(raw: dict, source: str = "<scenario>", overrides: list[str]
     known = {"run", "radio", "world", "robots", "events", "checks"}
     for key in raw:
         if key not in known:
-            raise ScenarioError(source, key, f"unknown section (expected one of {', '.join(sorted(known))})")
+            raise ScenarioError(source, key, f"unknown section (expected one of {', '.join(sorted(known))})"
+                                             + did_you_mean(key, known))
     out: dict[str, Any] = {}
     for section, schema in SCHEMA.items():
         table = raw.get(section, {})
@@ -286,7 +288,8 @@ def _fields(table: dict, schema: dict, source: str, where: str) -> dict:
     out = {}
     for key in table:
         if key not in schema:
-            raise ScenarioError(source, f"{where}.{key}", f"unknown key (known: {', '.join(sorted(schema))})")
+            raise ScenarioError(source, f"{where}.{key}", f"unknown key (known: {', '.join(sorted(schema))})"
+                                + did_you_mean(key, schema))
     for key, (typ, default, check) in schema.items():
         if key not in table:
             out[key] = copy.deepcopy(default)
@@ -711,7 +714,8 @@ def _event(e: Any, where: str, sc: dict, source: str, rng: np.random.Generator) 
     actions = [k for k in e if k != "at"]
     unknown = [k for k in actions if k not in EVENT_ACTIONS]
     if unknown:
-        raise ScenarioError(source, f"{where}.{unknown[0]}", f"unknown event (known: {', '.join(EVENT_ACTIONS)})")
+        raise ScenarioError(source, f"{where}.{unknown[0]}", f"unknown event (known: {', '.join(EVENT_ACTIONS)})"
+                            + did_you_mean(unknown[0], EVENT_ACTIONS))
     if len(actions) != 1:
         raise ScenarioError(source, where, "give exactly one action besides 'at'")
     action = actions[0]

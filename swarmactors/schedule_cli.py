@@ -1,4 +1,4 @@
-"""``swarmactors schedule TASKS.toml``: the Task Scheduling Controller of seed 003 (TCTM, then TDSM) on HiGHS.
+"""``swarmactors schedule TASKS.toml``: Panerati et al. (2018)'s Task Scheduling Controller (TCTM, TDSM) on HiGHS.
 
 Reads robots and tasks (format: docs/protocols/tsc.md), solves TCTM (Eq. 4) then TDSM (Eq. 14) with a time
 limit each, checks every returned schedule with ``protocols.secs.schedule_check``, and writes
@@ -43,8 +43,8 @@ _MISSING = object()
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``schedule`` on the command line's subparsers; the handler is ``command``."""
-    sp = subparsers.add_parser("schedule", help="task scheduling (seed 003 TCTM/TDSM MILPs): slots, arms, "
-                                                "deployment points as JSON and a plot")
+    sp = subparsers.add_parser("schedule", help="task scheduling (Panerati et al., ICRA 2018: the TCTM/TDSM MILPs): "
+                                                "slots, arms, deployment points as JSON and a plot")
     sp.add_argument("tasks", type=Path, help="robots and tasks TOML file (see docs/protocols/tsc.md)")
     sp.add_argument("--time-limit", type=float, metavar="S",
                     help=f"seconds per model (default: solver.time_limit, else {DEFAULT_TIME_LIMIT:g})")
@@ -189,7 +189,7 @@ def secs_sequence(inst, sched, source: str) -> str:
         slots.append({"index": k + 1, "deployment": [round(v, 6) for v in sched.theta[s]],
                       "duration": max(inst.tasks[t].duration for t in range(len(inst.tasks)) if sched.x[t][s]),
                       "master": a["master"], "spare": a["spare"], "tasks": tasks})
-    head = ("# Task subsets for the SECS navigation controller (seed 003 §III-C, the BMU's input), written by\n"
+    head = ("# Task subsets for the SECS navigation controller (Panerati et al. §III-C: the BMU's input), written by\n"
             "# `swarmactors schedule`. For each slot in order: flock to `deployment`, erupt one prominence per task,\n"
             "# rendez-vous around `master` after `duration`. Robot ids are 0..N-1 in the order of the [[robots]]\n"
             "# groups of the input, as a scenario's [[robots]] groups number them.\n")

@@ -196,7 +196,8 @@ def _sweep(args, err: Console) -> int:
 
         def progress(done: int, total: int, counts: dict) -> None:
             note = ", ".join(f"{v} {k}" for k, v in (("running", counts.get("running", 0)),
-                                                       ("check failures", counts["failed"]),
+                                                       ("with a failed check", counts["failed"]),
+                                                       ("with crashed robots", counts.get("crashed", 0)),
                                                        ("errors", counts["errors"])) if v)
             bar.update(task, completed=done, total=total, note=note)
 
@@ -216,12 +217,16 @@ def _sweep(args, err: Console) -> int:
         t.add_column()
         t.add_row("trials", f"{outcome.total} ({outcome.skipped} already done, {outcome.ran} run now)")
         t.add_row("grid", "; ".join(f"{k} = {', '.join(map(sw.cell, v))}" for k, v in plan.grid) or "none")
-        t.add_row("check failures", str(outcome.failed))
-        t.add_row("errors", str(outcome.errors))
+        named = ", ".join(f"{name} {n}" for name, n in outcome.failed_by_check.items())
+        t.add_row("failed checks", f"[red]{outcome.failed} trials[/] ({named})" if outcome.failed else "none")
+        t.add_row("crashed robots", f"[red]in {outcome.crashed} trials[/] (trials.csv: crashed)"
+                  if outcome.crashed else "none")
+        t.add_row("errors", f"[red]{outcome.errors} trials could not run[/]: {outcome.first_error}"
+                  if outcome.errors else "none")
         t.add_row("csv", str(outcome.csv))
         for p in outcome.plots:
             t.add_row("file", str(p))
         if outcome.interrupted:
             t.add_row("interrupted", "run the same command again to finish the sweep")
         err.print(t)
-    return EXIT_INTERRUPTED if outcome.interrupted else EXIT_OK
+    return outcome.exit_code

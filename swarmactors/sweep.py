@@ -59,7 +59,8 @@ from swarmactors.launcher import fixed_hash_seed
 from swarmactors.result import to_jsonable
 from transport.messages import DROP_CAUSES
 
-COLUMNS_AFTER_GRID = ["trial", "seed", "ticks", "trace_hash", "stop_reason", "robots", "alive", "frames_sent",
+COLUMNS_AFTER_GRID = ["trial", "seed", "ticks", "trace_hash", "stop_reason", "robots", "alive", "crashed",
+                      "frames_sent",
                       "deliveries", *[f"dropped.{c}" for c in DROP_CAUSES], "dropped_total", "passed", "error"]
 CALLABLE_COLUMNS_AFTER_GRID = ["trial", "seed", "error"]
 SWEEP_VERSION = 1
@@ -457,16 +458,19 @@ def trial_cells(sc: dict, out_dir: Path, run_id: str, keep: str) -> tuple[dict |
 
     try:
         result = asyncio.run(run_world(sc, out_dir, Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"]), run_id,
-                                       processes=sc["run"]["processes"]))
+                                       processes=sc["run"]["processes"], return_on_signal=True))
     except Exception as exc:  # the row says why; the sweep goes on
         return {"error": f"{exc.__class__.__name__}: {exc}"}, True
     if result["interrupted"]:
         return None, False
+    from swarmactors.exitcodes import crashed
+
     data = result.data
     w = data["world"]
     row = dict(
         ticks=cell(data["ticks"]), trace_hash=data["trace_hash"], stop_reason=cell(data["stop_reason"]),
         robots=cell(len(data["robots"])), alive=cell(sum(1 for r in data["robots"].values() if r["alive"])),
+        crashed=cell(sum(crashed(r) for r in data["robots"].values())),
         frames_sent=cell(w["frames_sent"]), deliveries=cell(w["deliveries"]),
         dropped_total=cell(w["dropped_total"]),
         passed=cell(all(c["passed"] for c in data["checks"])) if data["checks"] else "",
@@ -480,7 +484,7 @@ def trial_cells(sc: dict, out_dir: Path, run_id: str, keep: str) -> tuple[dict |
     for c in data["checks"]:
         row[f"check.{c['name']}"] = "pass" if c["passed"] else "fail"
         row[f"check.{c['name']}.value"] = cell(c["value"])
-    failed = row["passed"] == "false"
+    failed = row["passed"] == "false" or row["crashed"] != "0"
     return row, keep == "all" or (keep == "failed" and failed)
 
 
@@ -606,11 +610,24 @@ class Outcome:
     interrupted: bool
     csv: Path
     plots: list[Path]
+    failed_by_check: dict[str, int] = field(default_factory=dict)  # check outcome name -> trials it failed
+    crashed: int = 0  # trials in which a robot crashed (swarmactors.exitcodes.crashed)
+    first_error: str = ""  # the error of the first trial that could not run
 
     def as_dict(self) -> dict:
         return {"csv": str(self.csv), "trials": self.total, "skipped": self.skipped, "ran": self.ran,
-                "errors": self.errors, "failed_checks": self.failed, "interrupted": self.interrupted,
+                "errors": self.errors, "failed_checks": self.failed, "failed_by_check": self.failed_by_check,
+                "crashed": self.crashed, "first_error": self.first_error, "interrupted": self.interrupted,
                 "plots": [str(p) for p in self.plots]}
+
+    @property
+    def exit_code(self) -> int:
+        """130 interrupted; 1 when a trial failed a check, crashed a robot or could not run; else 0."""
+        from swarmactors.exitcodes import EXIT_CHECK, EXIT_INTERRUPTED, EXIT_OK
+
+        if self.interrupted:
+            return EXIT_INTERRUPTED
+        return EXIT_CHECK if self.failed or self.errors or self.crashed else EXIT_OK
 
 
 def run_sweep(sw: Sweep, workers: int = 1, keep: str = "failed",
@@ -658,7 +675,8 @@ def _run_sweep(sw: Sweep, workers: int, keep: str, progress, client) -> Outcome:
     # a resumed sweep counts the errors and failed checks of the trials already in trials.csv too
     before = [table.rows[t.key(sw.keys)] for t in trials if table.done(t)]
     counts = {"errors": sum(bool(r.get("error")) for r in before),
-              "failed": sum(r.get("passed") == "false" for r in before), "running": 0}
+              "failed": sum(r.get("passed") == "false" for r in before),
+              "crashed": sum(r.get("crashed", "") not in ("", "0") for r in before), "running": 0}
     done = skipped
 
     def report() -> None:
@@ -670,6 +688,7 @@ def _run_sweep(sw: Sweep, workers: int, keep: str, progress, client) -> Outcome:
         table.add(t, row)
         counts["errors"] += bool(row.get("error"))
         counts["failed"] += row.get("passed") == "false"
+        counts["crashed"] += row.get("crashed", "") not in ("", "0")
         done += 1
         report()
 
@@ -695,8 +714,16 @@ def _run_sweep(sw: Sweep, workers: int, keep: str, progress, client) -> Outcome:
     plots = [] if interrupted else summary_plots(sw, table)
     if sw.post and not interrupted:
         plots += post_process(sw)
+    rows = [table.rows[t.key(sw.keys)] for t in trials if table.done(t)]
+    by_check: dict[str, int] = {}
+    for r in rows:
+        for k, v in r.items():
+            if k.startswith("check.") and not k.endswith(".value") and v == "fail":
+                by_check[k.removeprefix("check.")] = by_check.get(k.removeprefix("check."), 0) + 1
     return Outcome(len(trials), skipped, done - skipped, counts["errors"], counts["failed"], interrupted,
-                   table.path, plots)
+                   table.path, plots, dict(sorted(by_check.items())),
+                   sum(r.get("crashed", "") not in ("", "0") for r in rows),
+                   next((r["error"] for r in rows if r.get("error")), ""))
 
 
 def _on_pool(sw: Sweep, pending: list[Trial], keep: str, workers: int, take, running) -> bool:
@@ -836,6 +863,8 @@ def summary_plots(sw: Sweep, table: Table) -> list[Path]:
     for key, values in sw.grid:
         numeric_x = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
         xs = {cell(v): (float(v) if numeric_x else i) for i, v in enumerate(values)}
+        span = (max(xs.values()) - min(xs.values())) if len(xs) > 1 else 1.0
+        spread = 0.025 * span if numeric_x else 0.12  # the trials' dots side by side around their grid value
         others = [k for k in sw.keys if k != key]
         other_values = [[cell(v) for v in vals] for k, vals in sw.grid if k != key]
         series = [s for s in itertools.product(*other_values)
@@ -855,7 +884,10 @@ def summary_plots(sw: Sweep, table: Table) -> list[Path]:
                         if not ys:
                             continue
                         x = xs[cell(v)]
-                        ax.scatter([x] * len(ys), ys, s=9, color=colour, alpha=0.35, lw=0)
+                        offsets = [spread * (2 * i / (len(ys) - 1) - 1) if len(ys) > 1 else 0.0
+                                   for i in range(len(ys))]
+                        ax.scatter([x + d for d in offsets], ys, s=16, color=colour, alpha=0.6,
+                                   edgecolors="white", linewidths=0.4, zorder=3)
                         px.append(x)
                         mean.append(sum(ys) / len(ys))
                         sd.append(math.sqrt(sum((y - mean[-1]) ** 2 for y in ys) / len(ys)))

@@ -5,7 +5,9 @@ tick (``field``: categories with a legend, numbers on a colour bar) (one ``LineC
 swarm, ticks subsampled so that at most ``SEGMENTS_MAX`` segments are drawn), its start as a small dot and its
 end as a disc. Above that, paths would be an unreadable tangle: a density heat map (how many robot-ticks fell in
 each cell, log scale) is drawn instead. The world's bounds, when the scenario has them, frame the picture, so
-nothing at the edge is cut off.
+nothing at the edge is cut off. A swarm in which no robot moved has no paths: its robots are drawn where they
+stood, without a time colour bar, and the title says so. The title counts the run's ticks (first to last
+record), not the records drawn.
 """
 
 from __future__ import annotations
@@ -75,6 +77,7 @@ def plot_trajectories(records: list[dict], path: Path, title: str = "", bounds: 
     """
     ticks, by_robot = tracks(records)
     n = len(by_robot)
+    span = int(ticks[-1] - ticks[0]) + 1 if len(ticks) else 0  # the run's ticks, whatever was thinned
     fig, ax = plt.subplots(figsize=(7, 6.5), dpi=110)
     allxy = np.concatenate(list(by_robot.values())) if by_robot else np.zeros((0, 2))
     allxy = allxy[~np.isnan(allxy).any(axis=1)]
@@ -86,7 +89,7 @@ def plot_trajectories(records: list[dict], path: Path, title: str = "", bounds: 
                        cmap="magma_r", norm=LogNorm(vmin=1, vmax=max(h.max(), 1)), aspect="equal",
                        interpolation="nearest")
         fig.colorbar(im, ax=ax, label="robot-ticks per cell")
-        what = f"density of {n} robots over {len(ticks)} ticks"
+        what = f"density of {n} robots over {span} ticks"
     else:
         stride = max(1, int(np.ceil(n * max(len(ticks) - 1, 1) / SEGMENTS_MAX)))
         keep = np.arange(0, len(ticks), stride)
@@ -105,7 +108,8 @@ def plot_trajectories(records: list[dict], path: Path, title: str = "", bounds: 
                 values += [v for v, good in zip(vals, ok, strict=True) if good]
         t0, t1 = (ticks[0], ticks[-1]) if len(ticks) else (0, 1)
         handles = []
-        if segs and sum(len(s) for s in segs):
+        moved = any(bool(np.any(np.abs(s[:, 1] - s[:, 0]) > 0)) for s in segs if len(s))
+        if moved:
             lw = 1.0 if n <= 50 else 0.5
             if field:
                 handles = _by_field(fig, ax, np.concatenate(segs), values, field, lw)
@@ -124,10 +128,15 @@ def plot_trajectories(records: list[dict], path: Path, title: str = "", bounds: 
             ax.scatter(starts[:, 0], starts[:, 1], s=size / 3, c="0.5", zorder=3, label="start")
             ax.scatter(ends[:, 0], ends[:, 1], s=size, c="white", edgecolors="k", linewidths=0.5, zorder=4,
                        label="end (or failure)")
-            ax.legend(handles=[*handles, *ax.get_legend_handles_labels()[0]], loc="best", fontsize=8, framealpha=0.7,
-                      title=field if handles else None)
-        what = f"paths of {n} robots over {len(ticks)} ticks" + (f" by {field}" if field else "")
-        what += f" (every {stride} ticks)" if stride > 1 else ""
+            if moved:
+                ax.legend(handles=[*handles, *ax.get_legend_handles_labels()[0]], loc="best", fontsize=8,
+                          framealpha=0.7, title=field if handles else None)
+        if moved:
+            step = round((ticks[-1] - ticks[0]) / max(len(ticks) - 1, 1)) * stride if len(ticks) > 1 else 1
+            what = f"paths of {n} robots over {span} ticks" + (f" by {field}" if field else "")
+            what += f" (every {step} ticks)" if step > 1 else ""
+        else:
+            what = f"{n} robots, none of which moved in {span} ticks"
     if bounds and _extent(allxy, bounds)[0] is not None and (hi - lo).max() >= 0.9 * _size(bounds):
         ax.add_patch(plt.Rectangle(tuple(bounds[0][:2]), bounds[1][0] - bounds[0][0], bounds[1][1] - bounds[0][1],
                                    fill=False, ec="0.3", lw=1, ls="--", zorder=1))

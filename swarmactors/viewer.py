@@ -666,7 +666,7 @@ async def run_with_viewer(server: ViewerServer, sc: dict, out_dir: Path, endpoin
 
     try:
         result = await run_world(sc, out_dir, endpoints, run_id, processes=processes, local_host=local_host,
-                                 on_tick=on_tick, on_open=on_open)
+                                 on_tick=on_tick, on_open=on_open, return_on_signal=True)
     finally:
         await tasks.close()
     if result.trace_path is not None and result.trace_path.exists():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import os
 from pathlib import Path
 
 import pytest
@@ -11,6 +12,28 @@ from swarmactors.launcher import new_run_id, run_world
 from swarmactors.result import Result
 from swarmactors.scenario import resolve_scenario
 from transport import Endpoints
+
+CHECKOUT_OUT = Path(__file__).resolve().parent.parent / "out"  # where runs without an output directory go
+
+
+def _runs_in(folder: Path) -> set[str]:
+    """The run directories under ``out/`` (``out/<name>/<run>``): two levels, nothing read."""
+    if not folder.is_dir():
+        return set()
+    return {f"{name}/{run}" for name in os.listdir(folder) if (folder / name).is_dir()
+            for run in os.listdir(folder / name)}
+
+
+@pytest.fixture(autouse=True)
+def _quick_tests_keep_the_checkout_clean(request):
+    """A test of the quick tier (not ``slow``) must not write runs into the checkout's ``out/``."""
+    if request.node.get_closest_marker("slow"):
+        yield
+        return
+    before = _runs_in(CHECKOUT_OUT)
+    yield
+    new = sorted(_runs_in(CHECKOUT_OUT) - before)
+    assert not new, f"this test wrote into the checkout's out/: {new[:5]} (give the run an output directory)"
 
 
 def run_scenario(raw: dict, out: Path, overrides: list[str] = (), processes: int | None = None) -> Result:

@@ -58,13 +58,13 @@ def test_follower_needs_surface_sensing():
         resolve_scenario(sc, "lf.toml")
 
 
-def test_assumption_2_against_the_true_follower_speeds_is_reported():
+def test_assumption_2_against_the_true_follower_speeds_is_reported(tmp_path):
     """follower_U_min is what the leader believes; the oracle compares the leader's U with the true min U_i."""
     sc = suite.simulation(duration=0.05)
     sc["robots"][0]["behaviors"][0]["follower_U_min"] = 0.25
     sc["robots"][0]["behaviors"][0]["U"] = 0.25
     sc["robots"][0]["speed"] = 0.25
-    r = run(sc, out=None)
+    r = run(sc, out=tmp_path)
     assert not _passed(r)["leader_follower.assumptions"]
     assert "Assumption 2" in r.check("leader_follower.assumptions")["detail"]
 

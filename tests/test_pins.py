@@ -36,6 +36,7 @@ SCENARIO_PINS = {
     "maze-flood.toml": "2a002ae316fc01b8af45e4682c3fbf56",  # issue 14; issue 23: overheard copies
     "roles-aat.toml": "84e75f28cd9855bc0ecee67eb2b85352",
     "roles-patrol.toml": "10ae36cee290b5991a0c819848bc70f8",  # issue 23: overheard copies
+    "relays.toml": "b72128f085b5b93cae47a72661ef14a3",  # issue 43: a new scenario
     "secs-prominence.toml": "0bc067f2ad73d4a08a215790ef056a8f",  # issue 18
     "stigmergy.toml": "df9a3f0a12473e58a660537ee6ade53e",
 }

@@ -35,6 +35,19 @@ def test_tutorial_executes_in_a_kernel(tmp_path):
     print(f"tutorial executed in {elapsed:.1f} s")
 
 
+def test_the_notebook_is_stored_with_its_outputs():
+    """A reader who opens the notebook (on a code host, say) sees what every cell printed and drew."""
+    nb = nbformat.read(NOTEBOOK, as_version=4)
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    silent = [c.source[:60] for c in code if ("print(" in c.source or "display(" in c.source) and not c.outputs]
+    assert not silent, silent
+    outputs = [o for c in code for o in c.outputs]
+    assert not [o for o in outputs if o.output_type == "error"]
+    assert sum("image/png" in o.get("data", {}) for o in outputs) == 3  # the sweep, the swarm, the trajectories
+    printed = "".join(o.get("text", "") for o in outputs)
+    assert "gossip.agreed passed" in printed and "pose rows" in printed
+
+
 def test_launcher_run_fails_in_a_running_loop_and_run_anywhere_does_not(tmp_path):
     """Why the notebook needs arun: asyncio.run inside a loop raises; run_anywhere uses a worker thread."""
     from swarmactors.notebook import run_anywhere

@@ -16,6 +16,7 @@ class CBAA(Behavior):
     name = "cbaa"
     kinds = (KIND,)
     plot_field = "task"
+    plot_marks = {"tasks": "task"}  # the run plot draws the tasks; ``task`` indexes them (swarmactors.plots)
 
     def __init__(self, tasks: list, at: int = 0, score: str = "inverse", scale: float = 1.0,
                  scores: list | None = None, consensus: str = "auto", every: int = 1,

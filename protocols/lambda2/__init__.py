@@ -1,4 +1,4 @@
-"""Distributed estimation of the algebraic connectivity λ2 (Panerati et al., seed 003, Sec. II-B).
+"""Distributed estimation of the algebraic connectivity λ2 (Panerati et al., ICRA 2018, Sec. II-B).
 
 Three spectral methods compared by the paper's Fig. 2, each as real message exchanges (one L2 frame per
 robot per tick): PI1, power iteration with a beacon's norm flooded every ``period`` iterations (Bertrand &

@@ -1,4 +1,4 @@
-"""Heterogeneous leader-follower navigation without collisions (Sano et al., seed 004).
+"""Heterogeneous leader-follower navigation without collisions (Sano et al. 2022).
 
 A sensing-only protocol: followers use only the vectors they sense to the closest point of the other bodies.
 ``rules`` holds the pure equations (Eqs. 9–24), ``behavior`` the robot side (leader and follower, no oracle

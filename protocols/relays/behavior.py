@@ -84,11 +84,12 @@ def valid_plan(v) -> str | None:
 
 
 class Relays(Behavior):
-    """Self-healing connectivity chains from a root to targets (Swarm Relays, 002)."""
+    """Self-healing connectivity chains from a root to targets (Swarm Relays, Varadharajan et al. 2020)."""
 
     name = "relays"
     kinds = (*VS_KINDS, CHAIN, TASK, BID, JOIN, NEED)
     plot_field = "role"
+    plot_marks = {"targets": "target"}  # the run plot draws the targets (swarmactors.plots)
 
     def __init__(self, targets: list, root: int = 0, at: int = 1, ds: float = 1.4, dc: float = 1.6,
                  db: float = 1.8, vmax: float = 0.5, rcol: float = 0.25, plan_time: float = 2.0,

@@ -1,4 +1,4 @@
-"""Seed 003 (Panerati et al., ICRA 2018): the Task Scheduling Controller and the SECS navigation controller.
+"""Panerati et al. (ICRA 2018): the Task Scheduling Controller and the SECS navigation controller.
 
 Import-light on purpose: robot hosts may import this package, so the MILP solver (scipy), the checker and the
 plots live in submodules that are imported only by who needs them:

@@ -40,6 +40,7 @@ class Robot:
         self.report_names: list[str] = []  # the name each behaviour's report goes under
         self.started = False
         self.error: str | None = None
+        self.traceback: str | None = None  # the full traceback of the exception that crashed it (result.json)
         self.error_sent = False
         self.alive = True
         self.sent_status: dict[str, Any] = {}
@@ -165,10 +166,11 @@ class Robot:
             tb = traceback.extract_tb(exc.__traceback__)
             where = f" at {tb[-1].filename.rsplit('/', 1)[-1]}:{tb[-1].lineno}" if tb else ""
             self.error = f"{exc.__class__.__name__}: {exc}{where}"
+            self.traceback = "".join(traceback.format_exception(exc))
         else:
             self.error = exc
         self.alive = False
-        log.warning("robot %d crashed: %s", self.id, self.error)
+        log.info("robot %d crashed: %s", self.id, self.error)  # the run's summary counts them in one line
 
     def report(self) -> dict:
         """Its behaviours' reports by name, with its error, its last log lines and its undecodable frames."""
@@ -180,6 +182,10 @@ class Robot:
                 rep[name] = {"report_error": f"{exc.__class__.__name__}: {exc}"}
         if self.error:
             rep["_error"] = self.error
+        if self.traceback:
+            rep["_traceback"] = self.traceback
+        if not self.started:  # never stepped: its behaviours could not be built, or the run ended first
+            rep["_started"] = False
         if self.ctx.logs:
             rep["_log"] = self.ctx.logs[-50:]
         if self.bad_bodies:
