@@ -25,7 +25,7 @@ from swarmactors.host import Robot
 from swarmactors.launcher import new_run_id, private_endpoints, run_world
 from swarmactors.launcher import run as launcher_run
 from swarmactors.plugins import BEHAVIORS, RefusedBehavior, allowed, available, resolve_behavior
-from swarmactors.scenario import resolve_scenario, world_spec
+from swarmactors.scenario import resolve, resolve_scenario
 from test_bad_input import FLOOD_RAW, PAUSE_AT, FakeLink, FakeQuery, WireRun, _get, _HostThread
 from transport import Endpoints, Keys, make_config, pack, seal, unpack
 from transport.messages import (
@@ -336,9 +336,9 @@ def test_attack_joins_at_the_barrier_stale_steps_and_silence(tmp_path, undisturb
 
 # ------------------------------------------------------------------ 5. empty joins
 def test_empty_join_is_refused_and_the_error_names_the_claimers():
-    sc = resolve_scenario({"run": {"name": "j", "ticks": 2, "join_timeout_s": 0.2},
+    sc = resolve({"run": {"name": "j", "ticks": 2, "join_timeout_s": 0.2},
                            "robots": [{"count": 3, "behaviors": [{"use": "beacon"}]}]}, "<t>")
-    w = World(world_spec(sc), FakeLink(), Keys("j"))
+    w = World(sc, FakeLink(), Keys("j"))
     empty = FakeQuery(w.keys.join, b"")
     w._on_join(empty)
     assert empty.replies[0][0] == "err" and "empty join request" in empty.replies[0][1]

@@ -30,6 +30,7 @@ from collections import defaultdict
 from collections.abc import Callable
 from typing import Any, NamedTuple, Protocol
 
+import msgspec
 import numpy as np
 
 from transport import Keys, Link, MalformedMessage, PendingQuery, host_loss_s, new_key, pack, seal, unseal
@@ -39,7 +40,6 @@ from transport.messages import (
     F64,
     I32,
     MAX_PER_REQUEST,
-    MAX_ROBOTS,
     PROTOCOL_VERSION,
     Ack,
     ControlCommand,
@@ -56,13 +56,14 @@ from transport.messages import (
     decode,
     encode,
 )
+from transport.scenario import RobotSpec, Scenario
 from transport.space import space_from_spec
 from world import rng
 from world.clock import BUCKET_S, LockstepClock, RealtimeClock, make_clock
 from world.counters import Counters, TickRecord
 from world.faults import REQUEST_CAP, ROBOT_CAP, Faults
 from world.kinematics import MAX_COORD, bad_positions, integrate
-from world.radio import Decision, Medium, Outgoing, RadioConfig
+from world.radio import Decision, Medium, Outgoing
 from world.registry import HostEntry, Robots
 from world.sensing import Reach, Sensed, gather, reach, sense_arrays
 from world.situated import Situated
@@ -115,46 +116,43 @@ class World:
 
     def __init__(
         self,
-        spec: dict,
+        spec: Scenario,
         link: Link,
         keys: Keys,
         sinks: list[Sink] = (),
         on_tick: Callable[[World], None] | None = None,
         run_secret: bytes | None = None,
     ):
-        run = spec["run"]
+        run, wspec = spec.run, spec.world
         self.spec = spec
         self.run_secret = run_secret  # seals join replies (transport.auth); None: join replies are plain
         self.link = link
         self.keys = keys
         self.sinks = list(sinks)
         self.on_tick = on_tick
-        self.seed = int(run.get("seed", 0))
-        self.ticks = int(run["ticks"])
-        self.dt = float(run.get("dt", 1.0))
-        self.clock = make_clock(run.get("clock", "lockstep"), self.ticks, self.dt)
-        self.watchdog_s = float(run.get("watchdog_s", 10.0))
-        self.join_timeout_s = float(run.get("join_timeout_s", 60.0))
-        self.state_every = int(run.get("state_every", 1))
-        self.trace_commands = bool(run.get("trace_commands", False))  # "cmd" rows: velocities before the cap
-        wspec = spec.get("world", {})
-        self.dims = int(wspec.get("dims", 2))
-        b = wspec.get("bounds")
-        self.bounds = np.array(b, dtype=float) if b else None
-        self.objects: dict[str, list[float]] = {o["name"]: list(map(float, o["pos"])) for o in wspec.get("objects", [])}
-        self.known_by: dict[str, Any] = {o["name"]: o.get("known_by", "all") for o in wspec.get("objects", [])}
-        self.radio = RadioConfig.from_dict(spec.get("radio", {}))
+        self.seed = run.seed
+        self.ticks = run.ticks
+        self.dt = float(run.dt)
+        self.clock = make_clock(run.clock, self.ticks, self.dt)
+        self.watchdog_s = float(run.watchdog_s)
+        self.join_timeout_s = float(run.join_timeout_s)
+        self.state_every = run.state_every
+        self.trace_commands = run.trace_commands  # "cmd" rows: velocities before the cap
+        self.dims = wspec.dims
+        self.bounds = np.array(wspec.bounds, dtype=float) if wspec.bounds else None
+        self.objects: dict[str, list[float]] = {o.name: list(map(float, o.pos)) for o in wspec.objects}
+        self.known_by: dict[str, Any] = {o.name: o.known_by for o in wspec.objects}
+        self.radio = spec.radio
         self.medium = Medium(self.radio, self.seed)
         self.robots = Robots(self.dims)
-        self.robots.add(spec["robots"], tick=0)
+        robots = spec.robot_specs()
+        self.robots.add(robots, tick=0)
         # the rules of space (world/space.py): only when the run has obstacles, bodies or heights
         self.space: SpaceRules | None = None
-        if (wspec.get("obstacles") or wspec.get("map") or self.dims == 3 or wspec.get("blocking")
-                or (self.robots.body > 0).any()):
-            self.space = SpaceRules(space_from_spec(wspec), self.dims, bool(self.radio.occlusion),
-                                    bool(wspec.get("blocking")))
-        self.known_map = ({"dims": self.dims, "obstacles": wspec.get("obstacles") or [], "map": wspec.get("map")}
-                          if any(s.get("knows_map") for s in spec["robots"]) else None)
+        if wspec.has_space or self.dims == 3 or wspec.blocking or (self.robots.body > 0).any():
+            self.space = SpaceRules(space_from_spec(wspec.space_spec()), self.dims, self.radio.occlusion,
+                                    wspec.blocking)
+        self.known_map = wspec.space_spec() if any(s.knows_map for s in robots) else None
         self.unclaimed: list[int] = list(range(len(self.robots)))
         self.situated = Situated(self.seed, self.radio.rab)  # local frames, bodies' surfaces, clocks, frame.rab
         self.situated.sync(self.robots.spec)
@@ -163,10 +161,10 @@ class World:
         self._host_codes_cache: tuple[np.ndarray, list[str]] = (np.empty(0, dtype=np.int64), [])
         self.counters = Counters()
         self.record = TickRecord(self.counters, self._publish_event)
-        self.max_robots = int(wspec.get("max_robots", MAX_ROBOTS))
+        self.max_robots = wspec.max_robots
         if len(self.robots) > self.max_robots:
             raise ValueError(f"{len(self.robots)} robots exceed world.max_robots = {self.max_robots}")
-        self.faults = Faults(spec.get("events", []), self.seed, self.robots, self.hosts, self.medium, self.objects,
+        self.faults = Faults(spec.events, self.seed, self.robots, self.hosts, self.medium, self.objects,
                              self.record, self.max_robots)
         self.started = False
         self.finished = False
@@ -425,8 +423,7 @@ class World:
                 self.faults.refuse(self.tick, cause, reason)
                 q.reply_error(reason)
                 return
-            template = dict(self.spec["robots"][0]) if self.spec["robots"] else {}
-            specs = [self._placed_like(template) for _ in range(want)]
+            specs = [self._placed_like(self.robots.spec[0]) for _ in range(want)]
             ids = self.robots.add(specs, tick=self.tick)
             self.record.event(self.tick, {"added": ids, "source": "join"})
         for rid in ids:
@@ -450,17 +447,16 @@ class World:
         if self.situated.local[rid]:
             pose = [round(v, POS_DIGITS) for v in self.situated.pose(rid, self.robots.pos[rid],
                                                                      self.robots.heading[rid])]
-        return RobotDescr(rid, pose, s.get("behaviors", []), s.get("kind", "ground"),
-                          float(self.robots.range[rid]), float(self.robots.sensing[rid]),
-                          float(self.robots.speed[rid]), bool(s.get("knows_map", False)),
+        return RobotDescr(rid, pose, s.behaviors, s.kind, float(self.robots.range[rid]),
+                          float(self.robots.sensing[rid]), float(self.robots.speed[rid]), s.knows_map,
                           **self.situated.descr(rid))
 
-    def _placed_like(self, template: dict) -> dict:
+    def _placed_like(self, template: RobotSpec) -> RobotSpec:
         """A robot spec for a host joining mid-run: template parameters, random position in bounds."""
         n = len(self.robots)
         lo, hi = (self.bounds if self.bounds is not None else np.array([[0.0] * self.dims, [1.0] * self.dims]))
         u = rng.uniform(self.seed, rng.PLACEMENT, self.tick, n, np.arange(self.dims))
-        return {k: v for k, v in template.items() if k != "pos"} | {"pos": list(lo + u * (hi - lo))}
+        return msgspec.structs.replace(template, pos=list(lo + u * (hi - lo)))
 
     def _check_ready(self) -> None:
         if not self.unclaimed and all(h in self._held for h in self._live_hosts()):
@@ -867,10 +863,7 @@ class World:
                           f"{self.max_robots} in the run)")
                 self.faults.refuse(self.tick, cause, reason)
                 return {"ok": False, "error": reason}
-        problem = self.faults.problem(action)
-        if problem:
-            raise ValueError(problem)
-        self.faults.queued.append(action)
+        self.faults.queue(action)
         return {"ok": True, "at": self.tick + 1 if self.started else 0}
 
     def status(self) -> dict:
