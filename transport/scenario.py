@@ -53,7 +53,7 @@ class SpecError(ValueError):
 def number(*, gt: float | None = None, ge: float | None = None, le: float = FLOAT_MAX) -> Any:
     """A number (an integer or a float, kept as given; never a boolean) within limits, always finite."""
     if gt is None and ge is None:
-        ge = -le if le == FLOAT_MAX else -FLOAT_MAX
+        ge = -FLOAT_MAX
     as_float = Annotated[float, Meta(gt=gt, ge=ge, le=le)]
     whole = {k: (math.ceil(v) if k == "ge" else math.floor(v) if k == "le" else int(v))
              for k, v in (("gt", gt), ("ge", ge), ("le", le)) if v is not None and abs(v) < INT64}
@@ -84,8 +84,11 @@ CheckSpec = Annotated[dict[str, Any], Meta(extra_json_schema={
 
 
 def key(typ: Any, meaning: str, default: str | None = None, shape: str | None = None, rule: str | None = None):
-    """A key's type with its meaning (docs and JSON Schema); ``default``/``shape`` word the docs' cells where the
-    type alone cannot; ``rule`` words the error when the value breaks the type's limits."""
+    """A key's type with its meaning (docs and JSON Schema).
+
+    ``default`` and ``shape`` word the docs' cells where the type alone cannot; ``rule`` words the error when a
+    value breaks the type's limits.
+    """
     extra = {k: v for k, v in (("default", default), ("shape", shape), ("rule", rule)) if v is not None}
     return Annotated[typ, Meta(description=meaning, extra=extra or None)]
 
@@ -186,8 +189,11 @@ class Radio(_Spec):
                  "delivered, overheard nor dropped)") = "overheard"
 
     def check(self) -> None:
-        """``latency_min_s`` <= ``latency_s``; the Gilbert-Elliott keys go with ``loss_model = "gilbert"`` only, which
-        needs ``p_gb`` and ``p_bg`` and replaces ``loss`` (then 0); ``loss_good`` defaults to 0, ``loss_bad`` to 1."""
+        """Check the rules between radio keys; fill the Gilbert-Elliott defaults.
+
+        ``latency_min_s`` <= ``latency_s``; the Gilbert-Elliott keys go with ``loss_model = "gilbert"`` only, which
+        needs ``p_gb`` and ``p_bg`` and replaces ``loss`` (then 0); ``loss_good`` defaults to 0, ``loss_bad`` to 1.
+        """
         if self.latency_min_s is not None and self.latency_min_s > self.latency_s:
             raise SpecError("radio.latency_min_s", "must not exceed radio.latency_s")
         if self.loss_model != "gilbert":
@@ -233,7 +239,7 @@ class WorldObject(_Spec, omit_defaults=True):
 
 
 class CShape(_Spec):
-    """Swarm Relays' C-shaped obstacle: three boxes of outer side ``size`` and wall ``thickness``, open to ``opening``."""
+    """Swarm Relays' C-shaped obstacle: three boxes of outer side ``size``, wall ``thickness``, open to ``opening``."""
 
     center: XY
     size: Length
@@ -242,8 +248,10 @@ class CShape(_Spec):
 
 
 class Obstacle(_Spec):
-    """A convex prism: exactly one of ``xy`` (a convex polygon), ``box`` or ``c_shape``, over ``z`` (None: every
-    height). Resolved, every obstacle is an ``xy`` polygon with its ``z``."""
+    """A convex prism: exactly one of ``xy`` (a convex polygon), ``box`` or ``c_shape``, over ``z``.
+
+    ``z`` None is every height. Resolved, every obstacle is an ``xy`` polygon with its ``z``.
+    """
 
     xy: Annotated[list[XY], Meta(min_length=3)] | UnsetType = UNSET
     box: Annotated[list[XY], Meta(min_length=2, max_length=2)] | UnsetType = UNSET
@@ -392,10 +400,10 @@ ROBOT_KEYS: list[tuple[str, Any, Any]] = [
     ("sensing_to", key(Literal["center", "surface"], "`surface`: the sensed vector points to the closest point of the "
                        "other robot's body (its `body_radius`), not its centre"), "center"),
     ("clock_offset", key(number(ge=-MAX_CLOCK_OFFSET_S, le=MAX_CLOCK_OFFSET_S) | Interval, "offset of the robot's own "
-                         f"clock, seconds, within ±{MAX_CLOCK_OFFSET_S:g}; a range is drawn per robot from the run's "
+                         "clock, seconds; a range [lo, hi] (within the same limits) is drawn per robot from the run's "
                          "seed"), 0.0),
-    ("clock_drift", key(number(ge=-MAX_DRIFT_PPM, le=MAX_DRIFT_PPM) | Interval, "drift of the robot's own clock, ppm, "
-                        f"within ±{MAX_DRIFT_PPM:g}; a range is drawn per robot from the run's seed"), 0.0),
+    ("clock_drift", key(number(ge=-MAX_DRIFT_PPM, le=MAX_DRIFT_PPM) | Interval, "drift of the robot's own clock, ppm; "
+                        "a range [lo, hi] (within the same limits) is drawn per robot from the run's seed"), 0.0),
 ]
 ROBOT_FIELDS = tuple(name for name, _, _ in ROBOT_KEYS)
 # a robot spec's JSON leaves these out while they are unset (None) or, for the situated keys, at their default
@@ -455,8 +463,11 @@ class _Robot(msgspec.Struct):
                 raise SpecError(f"{where}.behaviors[{i}].as", f"{b['as']!r} must be a non-empty string")
 
     def check_positions(self, positions: list[list[float]], where: str, dims: int, given: bool) -> list[list[float]]:
-        """Positions of these robots as ``dims`` floats each: in 3-D a ground robot stays at z = 0 (an explicit
-        position above it is an error, a placed one is lowered) and a flying one within its ``altitude``."""
+        """Positions of these robots as ``dims`` floats each.
+
+        In 3-D a ground robot stays at z = 0 (an explicit position above it is an error, a placed one is lowered)
+        and a flying one within its ``altitude``.
+        """
         pts = points(positions, dims, where)
         if dims == 3:
             for i, p in enumerate(pts):
@@ -684,8 +695,11 @@ class Scenario(_Spec, kw_only=True):
         return out
 
     def check(self) -> None:
-        """The rules between keys that need no placement: sections, counts within ``world.max_robots``, each group's
-        parameters, each event's action."""
+        """Check the rules between keys that need no placement.
+
+        Sections, counts within ``world.max_robots``, each group's parameters, each event's action, each check's
+        ``use``.
+        """
         self.run.check()
         self.radio.check()
         self.world.check()
@@ -701,8 +715,10 @@ class Scenario(_Spec, kw_only=True):
                 raise SpecError(f"checks[{i}]", 'must be a table with use = "family.check" or "module:function"')
 
     def check_sizes(self) -> None:
-        """Robot counts (groups, then ``add`` events) stay within ``world.max_robots``, an add within
-        ``MAX_PER_REQUEST``: checked before anything is placed, so 10**9 robots are refused at once."""
+        """Robot counts (groups, then ``add`` events) stay within ``world.max_robots``, an add's within 1000.
+
+        Checked before anything is placed, so 10**9 robots are refused at once.
+        """
         limit, total = self.world.max_robots, 0
         items = [(f"robots[{i}]", g) for i, g in enumerate(self.robots)]
         items += [(f"events[{i}].add", e.add) for i, e in enumerate(self.events) if e.add is not UNSET]
@@ -719,8 +735,10 @@ class Scenario(_Spec, kw_only=True):
                 raise SpecError(name, f"{n} robots: an add creates at most {MAX_PER_REQUEST}")
 
     def check_event_ids(self) -> None:
-        """Robot ids in events must exist when the event applies (robots added earlier count); the world's own
-        rule for each action (``action_problem``)."""
+        """Each event passes the world's own rule for its action (``action_problem``).
+
+        Robot ids must exist when the event applies (robots added by earlier ``add`` events count).
+        """
         count = sum(g.count for g in self.robots)
         objects = {o.name for o in self.world.objects}
         for i in sorted(range(len(self.events)), key=lambda k: self.events[k].at):
@@ -746,8 +764,10 @@ class Scenario(_Spec, kw_only=True):
 
 
 def check_group(group: Any, where: str, sc: Scenario) -> None:
-    """A group's own rules: its parameters (``_Robot.check_params``), one of ``count`` or ``positions``
-    (``placement = "explicit"`` goes with positions)."""
+    """A group's own rules: its parameters (``_Robot.check_params``), one of ``count`` or ``positions``.
+
+    ``placement = "explicit"`` goes with positions (a resolved group has both).
+    """
     group.check_params(where, sc.world.dims, sc.radio.range)
     if group.placement == "explicit":
         if group.positions is None or group.count not in (None, len(group.positions)):
@@ -896,11 +916,33 @@ def _rule(info: Any, value: Any) -> str:
 
 
 def schema() -> dict:
-    """The JSON Schema of a scenario file (``swarmactors schema``): for editors that complete and check TOML."""
-    out = msgspec.json.schema(Scenario)
-    defs = out["$defs"]
-    defs["Scenario"]["properties"].pop("source", None)
-    defs.update(msgspec.json.schema_components([MapSource], ref_template="#/$defs/{name}")[1])
-    defs["World"]["properties"]["map"]["anyOf"] = [{"type": "string"}, {"$ref": "#/$defs/MapSource"}, {"type": "null"}]
+    """The JSON Schema (draft 07, which TOML editors read) of a scenario file: ``swarmactors schema``.
+
+    A number key is one ``number`` (msgspec's integer-or-float union folded; "finite" needs no bound in JSON).
+    """
+    _, defs = msgspec.json.schema_components([Scenario, MapSource], ref_template="#/definitions/{name}")
+    root = defs.pop("Scenario")
+    root["properties"].pop("source")
+    defs["World"]["properties"]["map"]["anyOf"] = [{"type": "string"}, {"$ref": "#/definitions/MapSource"},
+                                                   {"type": "null"}]
     defs["Event"]["minProperties"] = defs["Event"]["maxProperties"] = 2  # at and exactly one action
-    return {"$schema": "https://json-schema.org/draft/2020-12/schema", "title": "swarmactors scenario", **out}
+    return _fold({"$schema": "http://json-schema.org/draft-07/schema#", **root, "title": "swarmactors scenario",
+                  "definitions": defs})
+
+
+def _fold(node: Any) -> Any:
+    """Fold integer-or-number unions into ``number`` and drop the +-FLOAT_MAX bounds, throughout a schema."""
+    if isinstance(node, list):
+        return [_fold(x) for x in node]
+    if not isinstance(node, dict):
+        return node
+    node = {k: _fold(v) for k, v in node.items() if not (k in ("minimum", "maximum") and abs(v) == FLOAT_MAX)}
+    members = node.get("anyOf")
+    if members and any(m.get("type") == "number" for m in members):
+        members = [m for m in members if m.get("type") != "integer"]
+        if len(members) == 1:
+            del node["anyOf"]
+            node = {**members[0], **node}
+        else:
+            node["anyOf"] = members
+    return node
