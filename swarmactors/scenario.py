@@ -121,7 +121,7 @@ def count_items(text: str, source: str) -> None:
         if n > worst[0]:
             name = re.sub(r"[ \t]", "", mark[3])
             worst = (n, f"{table}.{name}" if table else name)
-    raise ScenarioError(source, worst[1], f"about {max(worst[0], 1)} items: a scenario holds at most {MAX_ITEMS} "
+    raise ScenarioError(source, worst[1], f"about {worst[0] + 1} items: a scenario holds at most {MAX_ITEMS} "
                                           "(counted as commas before the file is parsed)")
 
 

@@ -202,13 +202,24 @@ BAD_ADDS = [
     {"pos": [1.0, 1.0], "behaviors": [{"params": 1}]},
     {"pos": [1.0, 1.0], "colour": "red"},
     {"pos": [float("nan"), 1.0]},
+    # values a scenario refuses, which an add once took (issue 42): the world crashed in cKDTree or overflowed
+    {"pos": [1e200, 1.0]},
+    {"pos": [1.0, 1.0], "range": 1e308},
+    {"pos": [1.0, 1.0], "speed": 1e308},
+    {"pos": [1.0, 1.0], "sensing": 1e308},
+    {"pos": [1.0, 1.0], "body_radius": 1e308},
+    {"pos": [1.0, 1.0], "clock_drift": 1e308},
+    {"pos": [1.0, 1.0], "clock_offset": 1e308},
+    {"pos": [1.0, 1.0], "obstacle_rays": 2**62},
+    {"pos": [1.0, 1.0], "obstacle_rays": 10**12},
+    {"pos": [1.0, 1.0], "altitude": [float("inf"), float("-inf")]},
 ]
 
 
-def test_add_specs_are_validated_by_the_message_definition():
+def test_add_specs_are_validated_by_the_scenario_model():
     for spec in BAD_ADDS:
         assert action_problem({"add": [spec]}, dims=2), spec
-    good = {"pos": [1.0, 1.0], "range": 1, "sensing": 2.0, "speed": float("inf"), "turn_rate": 0.1, "noise": 0.0,
+    good = {"pos": [1.0, 1.0], "range": 1, "sensing": 2.0, "speed": 3.0, "turn_rate": 0.1, "noise": 0.0,
             "heading": 0.5, "kind": "flying", "behaviors": [{"use": "beacon", "as": "b"}]}
     assert action_problem({"add": [good]}, dims=2) is None
     assert "1 to" in action_problem({"add": [{"pos": [0.0, 0.0]}] * (MAX_PER_REQUEST + 1)}, dims=2)
