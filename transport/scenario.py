@@ -253,7 +253,8 @@ class Obstacle(_Spec):
     ``z`` None is every height. Resolved, every obstacle is an ``xy`` polygon with its ``z``.
     """
 
-    xy: Annotated[list[XY], Meta(min_length=3)] | UnsetType = UNSET
+    xy: key(Annotated[list[XY], Meta(min_length=3)] | UnsetType, "a convex polygon's vertices, in order",
+            rule="must be a polygon: at least 3 vertices [x, y], in order") = UNSET
     box: Annotated[list[XY], Meta(min_length=2, max_length=2)] | UnsetType = UNSET
     c_shape: CShape | UnsetType = UNSET
     z: Interval | None | UnsetType = UNSET
@@ -862,10 +863,10 @@ def _walk(data: Any, info: Any, steps: list) -> tuple[Any, Any, dict | None]:
         if isinstance(info, msgspec.inspect.StructType):
             field = next((f for f in info.fields if f.name == step), None)
             info, extra = _unwrap(field.type) if field else (info, None)
-        elif isinstance(info, msgspec.inspect.ListType):
-            info, _ = _unwrap(info.item_type)
+        elif isinstance(info, msgspec.inspect.ListType):  # an item: the key's own rule is not the item's
+            info, extra = _unwrap(info.item_type)
         elif isinstance(info, msgspec.inspect.DictType):
-            info, _ = _unwrap(info.value_type)
+            info, extra = _unwrap(info.value_type)
     return value, info, extra
 
 
