@@ -13,9 +13,10 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass, field
 
+import msgspec
 import numpy as np
 
-from transport.scenario import MAX_ROBOTS, Event, action_problem, robot_spec
+from transport.scenario import ACTIONS, MAX_ROBOTS, Event, action_problem, robot_spec
 from world import rng
 from world.counters import TickRecord
 from world.radio import Medium
@@ -62,16 +63,18 @@ class Faults:
                               radio=self.medium.config)
 
     def queue(self, action: dict) -> None:
-        """Queue a control command for the next tick (ValueError naming the problem).
+        """Queue a control command for the next tick (ValueError naming the problem), typed as an event's action.
 
         An ``add``'s robots get the scenario's defaults (the radio's range) as a group's would.
         """
         problem = self.problem(action)
         if problem:
             raise ValueError(problem)
-        if "add" in action:
-            action = {"add": [robot_spec(s, self.robots.dims, self.medium.config.range) for s in action["add"]]}
-        self.queued.append(action)
+        ((name, value),) = action.items()
+        value = msgspec.convert(value, ACTIONS[name], strict=True)  # typed as a scenario event's argument
+        if name == "add":
+            value = [robot_spec(s, self.robots.dims, self.medium.config.range) for s in value]
+        self.queued.append({name: value})
 
     def due(self, tick: int) -> list[tuple[dict, str]]:
         """The actions to apply at ``tick``: due scenario events, then queued control commands."""
@@ -130,8 +133,8 @@ class Faults:
             self.medium.set_loss(float(value))
             self.record.event(tick, {"loss": float(value), "source": source})
         elif name == "move":
-            self.objects[value["object"]] = list(map(float, value["pos"]))
-            self.record.event(tick, {"move": {"object": value["object"], "pos": self.objects[value["object"]]},
+            self.objects[value.object] = list(map(float, value.pos))
+            self.record.event(tick, {"move": {"object": value.object, "pos": self.objects[value.object]},
                                      "source": source})
         elif name == "stop":
             return Applied(stop=f"stopped by {source}")

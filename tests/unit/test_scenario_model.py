@@ -230,6 +230,24 @@ def test_a_queued_control_add_gets_the_scenario_defaults():
     assert len(world.faults.queued) == 1
 
 
+def test_control_commands_and_scenario_events_apply_alike():
+    """A queued command is typed as the scenario event of the same name, so the world applies both one way."""
+    raw = base(world={"objects": [{"name": "t", "pos": [0, 0]}]}, robots=[{"count": 4}],
+               events=[{"at": 0, "move": {"object": "t", "pos": [1, 1]}}, {"at": 0, "kill": 3}])
+    world = World(resolve(raw, SRC), FakeLink(), Keys("model"))
+    commands = {"kill": 2, "kill_fraction": 0.0, "add": [{"pos": [0.5, 0.5]}], "cut": [[0, 1]],
+                "restore": [[0, 1]], "partition": [[0], [1]], "heal": True, "loss": 0.1,
+                "move": {"object": "t", "pos": [2, 2]}}
+    for name, value in commands.items():
+        world.faults.queue({name: value})
+    due = world.faults.due(0)
+    assert [next(iter(a)) for a, _ in due] == ["move", "kill", *commands]
+    for action, source in due:
+        world.faults.apply(action, source, 0)
+    assert world.objects["t"] == [2.0, 2.0] and world.medium.config.loss == 0.1
+    assert not world.robots.alive[2] and not world.robots.alive[3] and len(world.robots) == 5
+
+
 # ------------------------------------------------------------------------------------------------ typed and data
 
 
