@@ -24,6 +24,7 @@ import sys
 from typing import Annotated, Any, ClassVar, Literal
 
 import msgspec
+import numpy as np
 from msgspec import UNSET, Meta, UnsetType
 
 # ----------------------------------------------------------------- limits
@@ -349,12 +350,16 @@ class World(_Spec):
 
 def points(value: list[list[float]], dims: int, where: str) -> list[list[float]]:
     """Points of 2 or ``dims`` coordinates as floats of ``dims`` coordinates (a 2-D point in 3-D gets z = 0)."""
-    out = []
+    try:
+        arr = np.asarray(value, dtype=float)  # every point alike: at once
+    except ValueError:  # points of different lengths
+        arr = None
+    if arr is not None and arr.ndim == 2 and arr.shape[1] in (2, dims):
+        return np.hstack([arr, np.zeros((len(arr), dims - arr.shape[1]))]).tolist()
     for i, p in enumerate(value):
         if len(p) not in (2, dims):
             raise SpecError(f"{where}[{i}]", f"{p!r} must have {' or '.join(sorted({'2', str(dims)}))} coordinates")
-        out.append([float(v) for v in p] + [0.0] * (dims - len(p)))
-    return out
+    return [[float(v) for v in p] + [0.0] * (dims - len(p)) for p in value]
 
 
 # ----------------------------------------------------------------- [[robots]] and robot specs
@@ -520,11 +525,17 @@ RobotSpec = _struct("RobotSpec", "One robot: its position and parameters. The ro
                     [("pos", key(Point, "the robot's position"), msgspec.NODEFAULT), *ROBOT_KEYS])
 
 
-def robot_to_dict(spec: Any) -> dict:
-    """A robot spec as data: every key, but the ``SPARSE`` ones only when set (the resolved ``add`` event's form)."""
-    out = msgspec.to_builtins(spec)
-    defaults = {n: d for n, _, d in ROBOT_KEYS}
-    return {k: v for k, v in out.items() if k not in SPARSE or (v is not None and v != defaults[k])}
+_SPARSE_DEFAULTS = {n: d for n, _, d in ROBOT_KEYS if n in SPARSE}
+
+
+def robots_to_dicts(specs: list) -> list[dict]:
+    """Robot specs as data: every key, but the ``SPARSE`` ones only when set (the resolved ``add`` event's form)."""
+    out = msgspec.to_builtins(specs)
+    for data in out:
+        for k, default in _SPARSE_DEFAULTS.items():
+            if data[k] is None or data[k] == default:
+                del data[k]
+    return out
 
 
 def robot_spec(data: Any, dims: int, radio_range: float, where: str = "") -> Any:
@@ -692,7 +703,7 @@ class Scenario(_Spec, kw_only=True):
         out = msgspec.to_builtins(self)
         for ev, data in zip(self.events, out["events"], strict=True):
             if isinstance(ev.add, list):
-                data["add"] = [robot_to_dict(s) for s in ev.add]
+                data["add"] = robots_to_dicts(ev.add)
         return out
 
     def check(self) -> None:

@@ -48,7 +48,7 @@ from transport.scenario import (
     action_problem,
     decode,
     robot_spec,
-    robot_to_dict,
+    robots_to_dicts,
 )
 from world.radio import Medium
 from world.world import World
@@ -82,11 +82,11 @@ def test_a_group_and_a_robot_spec_share_one_table_of_keys():
 
 def test_a_robot_spec_as_data_leaves_out_unset_sparse_keys():
     spec = robot_spec({"pos": [1, 2], "speed": 0.5}, 2, 1.5)
-    data = robot_to_dict(spec)
+    (data,) = robots_to_dicts([spec])
     assert data == {"pos": [1.0, 2.0], "range": 1.5, "sensing": 1.5, "speed": 0.5, "noise": 0.0, "heading": 0.0,
                     "kind": "ground", "body_radius": 0.0, "knows_map": False, "obstacle_rays": 0, "behaviors": []}
     assert list(data) == [k for k in ["pos", *ROBOT_FIELDS] if k in data]  # the model's order
-    local = robot_to_dict(robot_spec({"pos": [0, 0], "sensing_frame": "local", "clock_drift": [-1, 1]}, 2, 1.0))
+    (local,) = robots_to_dicts([robot_spec({"pos": [0, 0], "sensing_frame": "local", "clock_drift": [-1, 1]}, 2, 1.0)])
     assert local["sensing_frame"] == "local" and local["clock_drift"] == [-1, 1] and "range_noise" not in local
 
 
