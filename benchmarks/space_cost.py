@@ -31,9 +31,10 @@ from pathlib import Path
 import numpy as np
 
 from swarmactors import maps
+from transport.scenario import Radio, robot_spec
 from transport.space import space_from_spec
 from world.kinematics import integrate
-from world.radio import Medium, Outgoing, RadioConfig
+from world.radio import Medium, Outgoing
 from world.registry import Robots
 from world.sensing import sense, within
 from world.space import SpaceRules
@@ -57,7 +58,7 @@ def record(spec: dict, n: int, ticks: int, seed: int) -> list[np.ndarray]:
         p = rng.uniform(0, 511, (n, 2))
         pts = np.vstack([pts, p[~space.inside(np.column_stack([p, np.zeros(n)]))]])
     r = Robots(2)
-    r.add([{"pos": list(p), "speed": 1.0} for p in pts[:n]], tick=0)
+    r.add([robot_spec({"pos": list(p), "speed": 1.0}, 2, 1.0) for p in pts[:n]], tick=0)
     out = []
     for _ in range(ticks):
         out.append(r.pos.copy())
@@ -72,12 +73,12 @@ def tick_cost(config: str, spec: dict, trace: list[np.ndarray], radius: float) -
     """Median CPU seconds of one world tick (reach, occlusion, radio decisions, collisions) over the trace."""
     n = len(trace[0])
     robots = Robots(2)
-    robots.add([{"pos": list(p), "range": radius, "body_radius": 0.3 if config == "bodies" else 0.0}
-                for p in trace[0]], tick=0)
+    robots.add([robot_spec({"pos": list(p), "range": radius, "body_radius": 0.3 if config == "bodies" else 0.0},
+                           2, radius) for p in trace[0]], tick=0)
     rules = (SpaceRules(space_from_spec(spec), 2, occlusion=config in ("occlusion", "bodies"), blocking=False)
              if config != "no-map" else None)
     rng = np.random.default_rng(5)
-    medium = Medium(RadioConfig(range=radius), seed=1)
+    medium = Medium(Radio(range=radius), seed=1)
     ids = np.arange(n)
     frames = [Outgoing(i, None, "b", 1, b"x" * 16) for i in range(n)]
     vel = rng.normal(0, 1, (len(trace), n, 2))

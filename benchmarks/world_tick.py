@@ -83,7 +83,7 @@ INPROC = r"""
 import asyncio, cProfile, json, pstats, sys, time
 from swarmactors.hosting import quiet_gc
 from swarmactors.robot import RobotRuntime
-from swarmactors.scenario import resolve_scenario, world_spec
+from swarmactors.scenario import resolve
 from swarmactors.trace import TraceWriter
 from transport import Keys, seal, unseal
 from transport.messages import Downlink, JoinReply, JoinRequest, Uplink, decode, encode
@@ -130,7 +130,7 @@ def main():
         spent["host"] += time.process_time() - t
         w._on_up_put(keys.up(name), up)
     trace = TraceWriter(None, {}, mode="off")
-    w = World(world_spec(resolve_scenario(raw, "<bench>")), Link(on_down), keys, sinks=[trace])
+    w = World(resolve(raw, "<bench>"), Link(on_down), keys, sinks=[trace])
     per = -(-n // k)
     for i in range(k):
         q = Query(keys.join, encode(JoinRequest(min(per, n - i * per))))

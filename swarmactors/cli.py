@@ -168,6 +168,9 @@ def build_parser() -> argparse.ArgumentParser:
     schedule_cli.add_parser(sub)
     export_cli.add_parser(sub)  # swarmactors export RUN (issue 26)
     newproject.add_parser(sub)  # swarmactors new NAME (issue 26)
+    schema = sub.add_parser("schema", help="print the JSON Schema of a scenario file, for editors that complete and "
+                                           "check TOML (docs/scenarios.md)")
+    schema.add_argument("--out", type=Path, help="write it to this file instead of standard output")
     return p
 
 
@@ -272,6 +275,14 @@ def _main(args) -> int:
             return _check(args, err)
         if args.command == "schedule":
             return schedule_cli.command(args)  # exit codes as documented there (0, 1, 2, 3)
+        if args.command == "schema":
+            from swarmactors.schema import json_schema
+
+            if args.out:
+                args.out.write_text(json_schema() + "\n", encoding="utf-8")
+            else:
+                print(json_schema())
+            return EXIT_OK
         if args.command in ("export", "new"):
             return (export_cli if args.command == "export" else newproject).command(args)
         if args.command == "sweep":

@@ -31,10 +31,10 @@ from swarmactors.host import RobotHost
 from swarmactors.hosting import host_process, quiet_gc
 from swarmactors.plugins import scenario_modules
 from swarmactors.result import Result, package_version, to_jsonable
-from swarmactors.scenario import world_spec
 from swarmactors.trace import TraceWriter
 from transport import Endpoints, Keys, Link, lease_settings, new_key
 from transport.auth import RUN_SECRET_ENV, run_secret_from_env
+from transport.scenario import Scenario
 from world import POS_DIGITS, WorldSession
 
 log = logging.getLogger(__name__)
@@ -108,7 +108,7 @@ def allowed_modules(sc: dict) -> set[str]:
 
 
 async def run_world(
-    sc: dict,
+    sc: Scenario | dict,
     out_dir: Path,
     endpoints: Endpoints,
     run_id: str,
@@ -121,6 +121,9 @@ async def run_world(
     on_result: Callable[[Result], None] | None = None,
 ) -> Result:
     """Run a resolved scenario's world (and, if asked, its hosts) to a Result on disk.
+
+    ``sc`` is a resolved ``Scenario`` (``swarmactors.scenario.resolve``) or its data (``resolve_scenario``,
+    result.json's ``scenario``), typed here once.
 
     ``run_secret`` seals the join replies (transport.auth); default: ``SWARMACTORS_RUN_SECRET`` if set, else a
     fresh one when this run starts its own hosts (``local_host``), which get it through the environment.
@@ -158,24 +161,24 @@ async def run_world(
             loop.add_signal_handler(signum, interrupt, name)
         except (RuntimeError, ValueError):  # not the main thread
             pass
+    spec = sc if isinstance(sc, Scenario) else Scenario.from_dict(sc)
+    data = to_jsonable(spec.to_dict())  # result.json's and the trace header's scenario
     try:
         out_dir.mkdir(parents=True, exist_ok=True)  # noqa: ASYNC240 — one quick mkdir before the world opens
         keys = Keys(run_id)
-        mode = trace_mode(sc["run"]["trace"])
-        compression = sc["run"].get("trace_compression", "none")
+        run = spec.run
         writer = TraceWriter(
             out_dir / "trace.msgpack",
-            {"run_id": run_id, "clock": sc["run"]["clock"], "seed": sc["run"]["seed"],
-             "pos_digits": POS_DIGITS, "scenario": to_jsonable(sc)},
-            compression=None if compression == "none" else compression,
-            mode=mode,
+            {"run_id": run_id, "clock": run.clock, "seed": run.seed, "pos_digits": POS_DIGITS, "scenario": data},
+            compression=None if run.trace_compression == "none" else run.trace_compression,
+            mode=run.trace_mode,
         )
         procs: list[multiprocessing.Process] = []
-        watchdog_s = float(sc["run"].get("watchdog_s", 10.0))
+        watchdog_s = float(run.watchdog_s)
         # the session lease follows the documented rule 2·watchdog_s + 5 (transport.lease_settings)
         endpoints = dataclasses.replace(endpoints, extra={**lease_settings(watchdog_s), **endpoints.extra})
         with Link(endpoints, loop) as link:
-            world = WorldSession(world_spec(sc), link, keys, sinks=[writer], on_tick=on_tick, run_secret=run_secret)
+            world = WorldSession(spec, link, keys, sinks=[writer], on_tick=on_tick, run_secret=run_secret)
             world.open()
             if on_open:
                 on_open(world, link)
@@ -186,13 +189,13 @@ async def run_world(
                 k = min(processes, n)
                 if k > 0:
                     endpoint = link.locators()[0]
-                    procs = spawn_hosts(endpoint, run_id, split(n, k), allowed_modules(sc), run_secret, watchdog_s)
+                    procs = spawn_hosts(endpoint, run_id, split(n, k), allowed_modules(data), run_secret, watchdog_s)
                 with quiet_gc():
                     try:
                         async with asyncio.TaskGroup() as tg:
                             tg.create_task(world.run())
                             if k == 0 and local_host:
-                                tg.create_task(_local_host(link, keys, allowed_modules(sc), run_secret))
+                                tg.create_task(_local_host(link, keys, allowed_modules(data), run_secret))
                     except BaseExceptionGroup as group:  # the first failure as itself (e.g. robots never claimed)
                         raise group.exceptions[0] from None
             finally:
@@ -200,10 +203,9 @@ async def run_world(
                 await asyncio.to_thread(end_hosts, procs, HOSTS_EXIT_S)
             # the world has its reports: a signal from here on is late and leaves a whole result.json, checks run
             summary = world.summary()
-            data = assemble(sc, summary, writer, run_id, processes, interrupted is not None)
-            result = write_result(data, out_dir)
-            if interrupted is None and sc["checks"]:
-                result.data["checks"] = judge(result, sc["checks"])
+            result = write_result(assemble(data, summary, writer, run_id, processes, interrupted is not None), out_dir)
+            if interrupted is None and spec.checks:
+                result.data["checks"] = judge(result, spec.checks)
                 result = write_result(result.data, out_dir)
             if on_result is not None:
                 on_result(result)
@@ -226,13 +228,6 @@ def pass_on(name: str) -> None:
     if name == "SIGINT":
         raise KeyboardInterrupt
     signal.raise_signal(signal.SIGTERM)
-
-
-def trace_mode(value: bool | str) -> str:
-    """``run.trace`` as a trace mode: true is ``full``, false is ``off`` (swarmactors/trace.py)."""
-    if isinstance(value, bool):
-        return "full" if value else "off"
-    return value
 
 
 def judge(result: Result, specs: list[dict]) -> list[dict]:

@@ -24,7 +24,7 @@ class Occluders:
     """Footprints (shapely) with vertical extents, from a resolved ``[world]`` section."""
 
     def __init__(self, world: dict):
-        self.flat = int(world.get("dims", 2)) == 2
+        self.flat = world["dims"] == 2
         self.shapes: list[tuple] = []  # (footprint, prepared footprint, z_lo, z_hi)
         for ob in world.get("obstacles") or []:
             self._add(Polygon(ob["xy"]), ob.get("z"))

@@ -11,8 +11,6 @@ stays true. The offset and drift of each robot are drawn by the world (world/sit
 
 from __future__ import annotations
 
-MAX_DRIFT_PPM = 1e5  # |drift| a scenario may ask for (10 %)
-
 
 class RobotClock:
     """Maps the world's time to one robot's local time."""

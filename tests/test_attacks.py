@@ -36,7 +36,8 @@ from swarmactors.host import Robot, RobotHost, WorldLost
 from swarmactors.launcher import new_run_id, private_endpoints, run_world
 from swarmactors.launcher import run as launcher_run
 from swarmactors.plugins import BEHAVIORS, RefusedBehavior, UnknownRule, allowed, available, resolve, resolve_behavior
-from swarmactors.scenario import ScenarioError, resolve_scenario, world_spec
+from swarmactors.scenario import ScenarioError, resolve_scenario
+from swarmactors.scenario import resolve as resolve_typed
 from swarmactors.scene import Scene
 from swarmactors.trace import TraceHasher
 from swarmactors.viewer import Source, ViewerServer
@@ -431,13 +432,24 @@ BAD_ADDS = [
     {"pos": [1.0, 1.0], "behaviors": [{"params": 1}]},
     {"pos": [1.0, 1.0], "colour": "red"},
     {"pos": [float("nan"), 1.0]},
+    # values a scenario refuses, which an add once took (issue 42): the world crashed in cKDTree or overflowed
+    {"pos": [1e200, 1.0]},
+    {"pos": [1.0, 1.0], "range": 1e308},
+    {"pos": [1.0, 1.0], "speed": 1e308},
+    {"pos": [1.0, 1.0], "sensing": 1e308},
+    {"pos": [1.0, 1.0], "body_radius": 1e308},
+    {"pos": [1.0, 1.0], "clock_drift": 1e308},
+    {"pos": [1.0, 1.0], "clock_offset": 1e308},
+    {"pos": [1.0, 1.0], "obstacle_rays": 2**62},
+    {"pos": [1.0, 1.0], "obstacle_rays": 10**12},
+    {"pos": [1.0, 1.0], "altitude": [float("inf"), float("-inf")]},
 ]
 
 
-def test_add_specs_are_validated_by_the_message_definition():
+def test_add_specs_are_validated_by_the_scenario_model():
     for spec in BAD_ADDS:
         assert action_problem({"add": [spec]}, dims=2), spec
-    good = {"pos": [1.0, 1.0], "range": 1, "sensing": 2.0, "speed": float("inf"), "turn_rate": 0.1, "noise": 0.0,
+    good = {"pos": [1.0, 1.0], "range": 1, "sensing": 2.0, "speed": 3.0, "turn_rate": 0.1, "noise": 0.0,
             "heading": 0.5, "kind": "flying", "behaviors": [{"use": "beacon", "as": "b"}]}
     assert action_problem({"add": [good]}, dims=2) is None
     assert "1 to" in action_problem({"add": [{"pos": [0.0, 0.0]}] * (MAX_PER_REQUEST + 1)}, dims=2)
@@ -615,9 +627,9 @@ def test_attack_joins_that_never_register_do_not_stall_a_lockstep_run(tmp_path):
 
 # ------------------------------------------------------------------ 5. empty joins
 def test_empty_join_is_refused_and_the_error_names_the_claimers():
-    sc = resolve_scenario({"run": {"name": "j", "ticks": 2, "join_timeout_s": 0.2},
+    sc = resolve_typed({"run": {"name": "j", "ticks": 2, "join_timeout_s": 0.2},
                            "robots": [{"count": 3, "behaviors": [{"use": "beacon"}]}]}, "<t>")
-    w = World(world_spec(sc), FakeLink(), Keys("j"))
+    w = World(sc, FakeLink(), Keys("j"))
     empty = FakeQuery(w.keys.join, b"")
     w._on_join(empty)
     assert empty.replies[0][0] == "err" and "empty join request" in empty.replies[0][1]

@@ -32,7 +32,7 @@ from hypothesis import strategies as st
 
 from swarmactors.host import RobotHost
 from swarmactors.launcher import new_run_id, run_world
-from swarmactors.scenario import resolve_scenario, world_spec
+from swarmactors.scenario import resolve, resolve_scenario
 from swarmactors.trace import TraceError, TraceWriter, iter_trace, read_trace, verify
 from tests_support import FakeLink, FakeQuery
 from transport import Endpoints, Keys, Link, MalformedMessage, make_config, pack, seal, unpack
@@ -596,7 +596,7 @@ FUZZ_RAW = {
     "world": {"objects": [{"name": "target", "pos": [1.0, 1.0]}]},
     "robots": [{"positions": [[0, 0], [1, 0], [2, 0], [0, 1], [1, 1]], "behaviors": [{"use": "beacon"}]}],
 }
-_FUZZ_SPEC = world_spec(resolve_scenario(FUZZ_RAW, "<fuzz>"))
+_FUZZ_SPEC = resolve(FUZZ_RAW, "<fuzz>")
 H0_ROBOTS, H1_ROBOTS = {0, 1, 2}, {3, 4}
 
 

@@ -13,15 +13,23 @@ Wire names are short (a step crosses Zenoh every tick); attribute names say what
 
 from __future__ import annotations
 
-import math
 from typing import Annotated, Any, Literal
 
 import msgspec
 import numpy as np
 
 from transport.codec import MalformedMessage
+from transport.scenario import (  # noqa: F401 - re-exported: the world's actions are part of the scenario model
+    ACTION_SHAPES,
+    ACTIONS,
+    INT64,
+    MAX_PER_REQUEST,
+    MAX_ROBOTS,
+    MoveArgs,
+    RobotId,
+    action_problem,
+)
 
-INT64 = 1 << 63
 PROTOCOL_VERSION = 3  # 3: lockstep steps are puts on up/{host}, inputs puts on down/{host} (issue 28)
 
 # Why the world did not deliver a frame to a robot (or refused a message): the counters, result.json,
@@ -37,7 +45,6 @@ def malformed_count(mal: list[str]) -> int:
         return len(mal) - 1 + int(mal[-1][len(MORE_MALFORMED):])
     return len(mal)
 
-RobotId = Annotated[int, msgspec.Meta(ge=0, le=INT64 - 1)]
 Seq = Annotated[int, msgspec.Meta(ge=0, le=INT64 - 1)]
 Kind = Annotated[str, msgspec.Meta(min_length=1, max_length=64)]
 HostName = Annotated[str, msgspec.Meta(min_length=1, max_length=64)]
@@ -159,7 +166,7 @@ class RobotIn(msgspec.Struct):
 
 
 # The numeric columns of ``Inputs``: little-endian, whatever the machine (hosts may run on other machines). Robot
-# ids fit int32: a scenario may ask for at most 1,000,000 robots (swarmactors/scenario.py, MAX_ROBOTS_LIMIT).
+# ids fit int32: a scenario may ask for at most 1,000,000 robots (transport/scenario.py, MAX_ROBOTS_LIMIT).
 F64 = np.dtype("<f8")
 I32 = np.dtype("<i4")
 
@@ -395,149 +402,8 @@ class ControlCommand(_Message):
 
 
 CLOCK_COMMANDS = ("status", "pause", "resume", "step", "run_to")
-
-Probability = Annotated[float, msgspec.Meta(ge=0.0, le=1.0)]
-Pair = Annotated[list[RobotId], msgspec.Meta(min_length=2, max_length=2)]
-Point = Annotated[list[float], msgspec.Meta(min_length=1, max_length=3)]
-
-
-class MoveArgs(_Message):
-    """Move a named object (a target) to ``pos``."""
-
-    object: str
-    pos: Point
-
-
-MAX_PER_REQUEST = 1000  # robots one ``add`` action or one mid-run join may create (the total: world.max_robots)
-MAX_ROBOTS = 10_000  # the default of the scenario key world.max_robots
-
-Positive = Annotated[float, msgspec.Meta(gt=0.0)]
-NonNegative = Annotated[float, msgspec.Meta(ge=0.0)]
-BehaviorSpec = Annotated[dict[str, Any], msgspec.Meta(min_length=1)]
-
-
-class AddedRobot(msgspec.Struct, forbid_unknown_fields=True, omit_defaults=True):
-    """A robot to add: a position, plus the robot-group parameters it may set, each typed (None: the default).
-
-    ``speed`` and ``turn_rate`` may be infinite (no cap); every other number must be finite.
-    """
-
-    pos: Point
-    range: Positive | None = None
-    sensing: Positive | None = None
-    speed: Positive | None = None
-    turn_rate: Positive | None = None
-    noise: NonNegative | None = None
-    heading: float | None = None
-    kind: Literal["ground", "flying"] | None = None
-    behaviors: list[BehaviorSpec] | None = None
-    # the world's space (issue 14): a scenario's ``add`` event carries its group's values (scenario.expand_group)
-    altitude: Annotated[list[float], msgspec.Meta(min_length=2, max_length=2)] | None = None
-    climb_rate: Positive | None = None
-    knows_map: bool | None = None
-    obstacle_rays: Annotated[int, msgspec.Meta(ge=0)] | None = None
-    # situated sensing and clocks (world/situated.py); a [lo, hi] range is drawn per robot
-    sensing_frame: Literal["global", "local"] | None = None
-    range_noise: NonNegative | None = None
-    bearing_noise: NonNegative | None = None
-    heading_offset: float | Annotated[list[float], msgspec.Meta(min_length=2, max_length=2)] | None = None
-    sensing_to: Literal["center", "surface"] | None = None
-    body_radius: NonNegative | None = None
-    clock_offset: float | Annotated[list[float], msgspec.Meta(min_length=2, max_length=2)] | None = None
-    clock_drift: float | Annotated[list[float], msgspec.Meta(min_length=2, max_length=2)] | None = None
-
-
-# Every fault/world action, from a scenario's [[events]] or the control queryable: name -> argument type.
-ACTIONS: dict[str, Any] = {
-    "kill": RobotId | Annotated[list[RobotId], msgspec.Meta(min_length=1)],
-    "kill_fraction": Probability,
-    "add": Annotated[list[dict[str, Any]], msgspec.Meta(min_length=1, max_length=MAX_PER_REQUEST)],
-    "cut": list[Pair],
-    "restore": list[Pair],
-    "partition": list[list[RobotId]],
-    "heal": bool,
-    "loss": Probability,
-    "move": MoveArgs,
-    "stop": bool,
-}
-# What each action expects, in words (error messages).
-ACTION_SHAPES = {
-    "kill": "a robot id or a list of robot ids",
-    "kill_fraction": "a number in [0, 1]",
-    "add": f"a list of 1 to {MAX_PER_REQUEST} robot specs, each with pos = [x, y]",
-    "cut": "a list of [a, b] robot id pairs",
-    "restore": "a list of [a, b] robot id pairs",
-    "partition": "a list of lists of robot ids",
-    "heal": "true",
-    "loss": "a number in [0, 1]",
-    "move": "{object = name, pos = [x, y]}",
-    "stop": "true",
-}
-
-
-def action_problem(action: dict, *, robots: int | None = None, dims: int = 3,
-                   objects: set[str] | None = None) -> str | None:
-    """Why ``action`` (``{name: argument}``) is not a valid world action, or None.
-
-    ``robots`` (how many exist), ``dims`` and ``objects`` add the checks that need the world's state;
-    None skips them (a scenario checks robot ids against the robots that exist at the event's tick).
-    """
-    if not isinstance(action, dict) or len(action) != 1 or next(iter(action)) not in ACTIONS:
-        names = sorted(action) if isinstance(action, dict) else action
-        return f"unknown command {names!r} (known: {', '.join(ACTIONS)})"
-    ((name, value),) = action.items()
-    try:
-        arg = msgspec.convert(value, ACTIONS[name], strict=True)
-    except msgspec.ValidationError as exc:
-        return f"{name}: {value!r} is not {ACTION_SHAPES[name]} ({exc})"
-    if name in ("heal", "stop") and arg is not True:
-        return f"{name}: must be true"
-    ids: list[int] = []
-    if name == "kill":
-        ids = [arg] if isinstance(arg, int) else arg
-    elif name in ("cut", "restore", "partition"):
-        ids = [i for group in arg for i in group]
-    elif name == "add":
-        for spec in arg:
-            problem = added_robot_problem(spec, dims)
-            if problem:
-                return f"add: {problem}"
-    elif name == "move":
-        if objects is not None and arg.object not in objects:
-            return f"move: no object {arg.object!r} (objects: {sorted(objects)})"
-        if not _finite_point(arg.pos, dims):
-            return f"move: pos {arg.pos!r} is not a finite point of at most {dims} coordinates"
-    if robots is not None:
-        bad = [i for i in ids if i >= robots]
-        if bad:
-            return f"{name}: no robot {bad[0]} (ids 0..{robots - 1})"
-    return None
-
-
-def added_robot_problem(spec: Any, dims: int = 3) -> str | None:
-    """Why ``spec`` is not a robot the world may add (AddedRobot, finite numbers, behaviours named), or None."""
-    try:
-        r = msgspec.convert(spec, AddedRobot, strict=True)
-    except msgspec.ValidationError as exc:
-        return f"{spec!r:.200} is not a robot spec with pos = [x, y] ({exc})"
-    if not _finite_point(r.pos, dims):
-        return f"pos {r.pos!r} is not a finite point of at most {dims} coordinates"
-    for name in ("range", "sensing", "noise", "heading"):
-        v = getattr(r, name)
-        if v is not None and not math.isfinite(v):
-            return f"{name} {v!r} is not finite"
-    for name in ("speed", "turn_rate"):
-        v = getattr(r, name)
-        if v is not None and math.isnan(v):
-            return f"{name} is not a number"
-    for b in r.behaviors or []:
-        if not isinstance(b.get("use"), str) or not b["use"]:
-            return f"behaviour spec {b!r:.200} has no use = \"name\" or \"module:Class\""
-    return None
-
-
-def _finite_point(p: list[float], dims: int) -> bool:
-    return 1 <= len(p) <= dims and all(math.isfinite(v) for v in p)
+# The world's actions (kill, add, cut, ...: a scenario's [[events]] and these commands) and their rules are part
+# of the scenario model (transport/scenario.py): ACTIONS, action_problem, MAX_PER_REQUEST and MAX_ROBOTS.
 
 
 # ----------------------------------------------------------------- encoding

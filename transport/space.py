@@ -287,7 +287,7 @@ def convex(xy: np.ndarray) -> bool:
 
 def space_from_spec(world: dict) -> Space:
     """The ``Space`` of a resolved ``[world]`` section (``obstacles`` and ``map``; see swarmactors.maps)."""
-    flat = int(world.get("dims", 2)) == 2
+    flat = world["dims"] == 2
     prisms = [Prism(np.asarray(o["xy"], dtype=float), _extent(o.get("z"))) for o in world.get("obstacles") or []]
     grid = None
     m = world.get("map")

@@ -1,9 +1,11 @@
 """Faults and world actions: scenario ``[[events]]`` and ``control`` commands, and robot crashes.
 
 Every action (kill, kill a fraction, add robots, cut or restore links, partition and heal, change the loss,
-move an object, stop) is one of ``transport.messages.ACTIONS``, validated there before it is queued or
-applied. Actions apply at the start of a tick, scenario events first (in ``at`` order), then the control
-commands that arrived since the last tick, so a run with the same events is the same run.
+move an object, stop) is one of ``transport.scenario.ACTIONS``, validated there before it is queued or
+applied; scenario events come typed (``transport.scenario.Event``), control commands are typed when queued
+(an ``add``'s robots are robot specs, checked as a scenario's). Actions apply at the start of a tick, scenario
+events first (in ``at`` order), then the control commands that arrived since the last tick, so a run with the
+same events is the same run.
 """
 
 from __future__ import annotations
@@ -11,9 +13,10 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass, field
 
+import msgspec
 import numpy as np
 
-from transport.messages import MAX_ROBOTS, action_problem
+from transport.scenario import ACTIONS, MAX_ROBOTS, Event, action_problem, robot_spec
 from world import rng
 from world.counters import TickRecord
 from world.radio import Medium
@@ -36,10 +39,10 @@ class Applied:
 class Faults:
     """Applies actions and crashes robots; tells each host which of its robots died."""
 
-    def __init__(self, events: list[dict], seed: int, robots: Robots, hosts: dict[str, HostEntry],
+    def __init__(self, events: list[Event], seed: int, robots: Robots, hosts: dict[str, HostEntry],
                  medium: Medium, objects: dict[str, list[float]], record: TickRecord,
                  max_robots: int = MAX_ROBOTS):
-        self.events = sorted(events, key=lambda e: e["at"])
+        self.events = sorted(events, key=lambda e: e.at)
         self._next_event = 0
         self.queued: list[dict] = []  # control actions, applied at the next tick
         self.seed = seed
@@ -56,17 +59,29 @@ class Faults:
 
     def problem(self, action: dict) -> str | None:
         """Why ``action`` cannot be applied to this world now, or None."""
-        if "loss" in action and self.medium.bursts is not None:
-            return "loss: the radio's loss_model is \"gilbert\" (its bursts replace the Bernoulli loss)"
-        return action_problem(action, robots=len(self.robots), dims=self.robots.dims, objects=set(self.objects))
+        return action_problem(action, robots=len(self.robots), dims=self.robots.dims, objects=set(self.objects),
+                              radio=self.medium.config)
+
+    def queue(self, action: dict) -> None:
+        """Queue a control command for the next tick (ValueError naming the problem), typed as an event's action.
+
+        An ``add``'s robots get the scenario's defaults (the radio's range) as a group's would.
+        """
+        problem = self.problem(action)
+        if problem:
+            raise ValueError(problem)
+        ((name, value),) = action.items()
+        value = msgspec.convert(value, ACTIONS[name], strict=True)  # typed as a scenario event's argument
+        if name == "add":
+            value = [robot_spec(s, self.robots.dims, self.medium.config.range) for s in value]
+        self.queued.append({name: value})
 
     def due(self, tick: int) -> list[tuple[dict, str]]:
         """The actions to apply at ``tick``: due scenario events, then queued control commands."""
         out = []
-        while self._next_event < len(self.events) and self.events[self._next_event]["at"] <= tick:
-            ev = {k: v for k, v in self.events[self._next_event].items() if k != "at"}
+        while self._next_event < len(self.events) and self.events[self._next_event].at <= tick:
+            out.append((self.events[self._next_event].action(), "scenario"))
             self._next_event += 1
-            out.append((ev, "scenario"))
         queued, self.queued = self.queued, []
         return out + [(a, "control") for a in queued]
 
@@ -118,8 +133,8 @@ class Faults:
             self.medium.set_loss(float(value))
             self.record.event(tick, {"loss": float(value), "source": source})
         elif name == "move":
-            self.objects[value["object"]] = list(map(float, value["pos"]))
-            self.record.event(tick, {"move": {"object": value["object"], "pos": self.objects[value["object"]]},
+            self.objects[value.object] = list(map(float, value.pos))
+            self.record.event(tick, {"move": {"object": value.object, "pos": self.objects[value.object]},
                                      "source": source})
         elif name == "stop":
             return Applied(stop=f"stopped by {source}")

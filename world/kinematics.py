@@ -21,8 +21,7 @@ import math
 
 import numpy as np
 
-MAX_SPEED = 1e6  # length units per second: the largest velocity command the world integrates
-MAX_COORD = 1e9  # length units: the largest |coordinate| a robot may reach
+from transport.scenario import MAX_COORD, MAX_SPEED  # the limits of a position and a speed
 
 
 def velocity_problem(vel: list[float], dims: int) -> str | None:

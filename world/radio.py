@@ -49,43 +49,13 @@ import msgspec
 import numpy as np
 
 from transport.messages import DROP_CAUSES
+from transport.scenario import Radio
 from transport.severance import Severance
 from world import rng
 from world.bursts import GilbertElliott
 from world.sensing import Reach
 
 CAUSE = {name: k for k, name in enumerate(DROP_CAUSES)}  # drop causes as small integers in ``Decision.cause``
-
-
-@dataclass
-class RadioConfig:
-    """The ``[radio]`` section, resolved."""
-
-    range: float = 1.0
-    latency: int = 1
-    latency_s: float = 0.01
-    latency_min_s: float | None = None
-    loss: float = 0.0
-    model: str = "bernoulli"
-    delta: float = 0.1
-    bandwidth: int = 0  # bytes per robot per tick; 0 = unlimited
-    occlusion: bool = False  # obstacles block links (world/space.py)
-    loss_model: str = "bernoulli"  # or "gilbert" (world/bursts.py): bursts replace the Bernoulli ``loss``
-    p_gb: float | None = None
-    p_bg: float | None = None
-    loss_good: float = 0.0
-    loss_bad: float = 1.0
-    rab: bool = False  # frames carry the receiver's range and bearing (world/situated.py)
-    exclude: str = "overheard"  # excluded robots' copies are carried and recorded as overheard; or "filter"
-
-    @classmethod
-    def from_dict(cls, data: dict) -> RadioConfig:
-        fields = {k: v for k, v in data.items() if k in cls.__dataclass_fields__}
-        return cls(**fields)
-
-    @property
-    def c_min_s(self) -> float:
-        return self.latency_s if self.latency_min_s is None else self.latency_min_s
 
 
 class Outgoing(msgspec.Struct):
@@ -147,8 +117,8 @@ def _pairs(indptr: np.ndarray, rows: np.ndarray, frame_ids: np.ndarray) -> tuple
 class Medium:
     """Decides receivers and drops for the frames of one tick."""
 
-    def __init__(self, config: RadioConfig, seed: int):
-        self.config = config
+    def __init__(self, config: Radio, seed: int):
+        self.config = config  # the scenario's [radio] (transport.scenario.Radio); set_loss replaces it
         self.seed = seed
         self.links = Severance()  # cuts and partitions (transport/severance.py)
         self._budget = np.zeros(0, dtype=np.int64)  # bytes sent this tick, per robot (bandwidth cap)
@@ -165,9 +135,10 @@ class Medium:
         return self.links.group
 
     def set_loss(self, loss: float) -> None:
-        if self.bursts is not None:
-            raise ValueError("loss: the radio's loss_model is \"gilbert\" (its bursts replace the Bernoulli loss)")
-        self.config.loss = loss
+        problem = self.config.loss_problem(loss)
+        if problem:
+            raise ValueError(f"loss: {problem}")
+        self.config = msgspec.structs.replace(self.config, loss=loss)
 
     def cut(self, a: int, b: int) -> None:
         self.links.cut(a, b)

@@ -8,6 +8,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from transport.scenario import RobotSpec
+
 
 @dataclass
 class Death:
@@ -50,7 +52,7 @@ class Robots:
         self.alt_hi = np.zeros(0)
         self.climb = np.zeros(0)  # a flying robot's vertical speed cap
         self.rays = np.zeros(0, dtype=np.int64)  # obstacle range rays
-        self.spec: list[dict] = []
+        self.spec: list[RobotSpec] = []  # robot i's resolved spec
         self.host: list[str | None] = []
         self.deaths: dict[int, Death] = {}
         self.status: list[dict] = []
@@ -59,35 +61,34 @@ class Robots:
     def __len__(self) -> int:
         return len(self.spec)
 
-    def add(self, specs: list[dict], tick: int) -> list[int]:
-        """Append robots described by resolved robot specs; return their new ids."""
+    def add(self, specs: list[RobotSpec], tick: int) -> list[int]:
+        """Append robots described by resolved robot specs (transport.scenario.RobotSpec); return their new ids."""
         start = len(self.spec)
         ids = list(range(start, start + len(specs)))
 
-        def col(name, default):
-            return np.array([float(s.get(name, default)) for s in specs])
+        def col(values) -> np.ndarray:
+            return np.array(list(values), dtype=float)
 
-        pos = np.array([list(s["pos"]) + [0.0] * (self.dims - len(s["pos"])) for s in specs], dtype=float)
+        pos = np.array([list(s.pos) + [0.0] * (self.dims - len(s.pos)) for s in specs], dtype=float)
         self.pos = np.vstack([self.pos, pos.reshape(len(specs), self.dims)])
-        self.heading = np.concatenate([self.heading, col("heading", 0.0)])
+        self.heading = np.concatenate([self.heading, col(s.heading for s in specs)])
         self.vel = np.vstack([self.vel, np.zeros((len(specs), self.dims))])
         self.alive = np.concatenate([self.alive, np.ones(len(specs), dtype=bool)])
         self.died_at = np.concatenate([self.died_at, np.full(len(specs), np.inf)])
-        self.range = np.concatenate([self.range, col("range", 1.0)])
-        self.sensing = np.concatenate([self.sensing, col("sensing", 1.0)])
-        self.speed = np.concatenate([self.speed, col("speed", np.inf)])
-        self.turn_rate = np.concatenate([self.turn_rate, col("turn_rate", np.inf)])
-        self.noise = np.concatenate([self.noise, col("noise", 0.0)])
-        self.body = np.concatenate([self.body, col("body_radius", 0.0)])
-        self.ground = np.concatenate([self.ground, [s.get("kind", "ground") == "ground" for s in specs]]).astype(bool)
-        alt = [s.get("altitude") or [0.0, np.inf] for s in specs]
-        self.alt_lo = np.concatenate([self.alt_lo, [float(a[0]) for a in alt]])
-        self.alt_hi = np.concatenate([self.alt_hi, [float(a[1]) for a in alt]])
-        climb = [s.get("climb_rate") if s.get("climb_rate") is not None else s.get("speed", np.inf) for s in specs]
-        self.climb = np.concatenate([self.climb, np.array(climb, dtype=float)])
-        self.rays = np.concatenate([self.rays, [int(s.get("obstacle_rays", 0)) for s in specs]]).astype(np.int64)
-        for rid, s in zip(ids, specs, strict=True):
-            self.spec.append({**s, "id": rid})
+        self.range = np.concatenate([self.range, col(s.range for s in specs)])
+        self.sensing = np.concatenate([self.sensing, col(s.sensing for s in specs)])
+        self.speed = np.concatenate([self.speed, col(s.speed_cap for s in specs)])
+        self.turn_rate = np.concatenate([self.turn_rate, col(s.turn_cap for s in specs)])
+        self.noise = np.concatenate([self.noise, col(s.noise for s in specs)])
+        self.body = np.concatenate([self.body, col(s.body_radius for s in specs)])
+        self.ground = np.concatenate([self.ground, [s.kind == "ground" for s in specs]]).astype(bool)
+        alt = [s.altitude_limits for s in specs]
+        self.alt_lo = np.concatenate([self.alt_lo, col(a[0] for a in alt)])
+        self.alt_hi = np.concatenate([self.alt_hi, col(a[1] for a in alt)])
+        self.climb = np.concatenate([self.climb, col(s.climb_cap for s in specs)])
+        self.rays = np.concatenate([self.rays, [s.obstacle_rays for s in specs]]).astype(np.int64)
+        for s in specs:
+            self.spec.append(s)
             self.host.append(None)
             self.status.append({})
             self.joined_at.append(tick)

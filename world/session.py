@@ -36,6 +36,7 @@ from transport.messages import (
     decode,
     encode,
 )
+from transport.scenario import Scenario
 from world.clock import LockstepClock, make_clock
 from world.sim import Refused, Simulation
 
@@ -66,23 +67,23 @@ class Peer:
 class WorldSession:
     """Serves a Simulation to robot hosts over a Link (module docstring)."""
 
-    def __init__(self, spec: dict, link: Link, keys: Keys, sinks: list[Sink] = (),
+    def __init__(self, spec: Scenario, link: Link, keys: Keys, sinks: list[Sink] = (),
                  on_tick: Callable[[WorldSession], None] | None = None, run_secret: bytes | None = None):
-        run = spec["run"]
+        run = spec.run
         self.link = link
         self.keys = keys
         self.sinks = list(sinks)
         self.on_tick = on_tick
         self.run_secret = run_secret  # seals join replies (transport.auth); None: join replies are plain
         self.sim = Simulation(spec, on_event=self._publish_event)
-        self.ticks = int(run["ticks"])
-        self.clock = make_clock(run.get("clock", "lockstep"), self.ticks, self.sim.dt)
+        self.ticks = run.ticks
+        self.clock = make_clock(run.clock, self.ticks, self.sim.dt)
         if not self.lockstep:
             self.clock.on_due = self._bookkeeping
-        self.watchdog_s = float(run.get("watchdog_s", 10.0))
-        self.join_timeout_s = float(run.get("join_timeout_s", 60.0))
+        self.watchdog_s = float(run.watchdog_s)
+        self.join_timeout_s = float(run.join_timeout_s)
         self.register_within_s = max(self.watchdog_s, REGISTER_MIN_S)
-        self.state_every = int(run.get("state_every", 1))
+        self.state_every = run.state_every
         self.peers: dict[str, Peer] = {}
         self.started = self.finished = False
         self.collecting = False  # the run is over: the session is collecting the hosts' final reports

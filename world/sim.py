@@ -27,16 +27,18 @@ import time as _time
 from collections.abc import Callable
 from typing import Any
 
+import msgspec
 import numpy as np
 
-from transport.messages import MAX_PER_REQUEST, MAX_ROBOTS, Deliveries, Inputs, RobotDescr, State, Uplink
+from transport.messages import MAX_PER_REQUEST, Deliveries, Inputs, RobotDescr, State, Uplink
+from transport.scenario import RobotSpec, Scenario
 from transport.space import space_from_spec
 from world import rng
 from world.air import Air, Copies
 from world.counters import Counters, TickRecord
 from world.faults import REQUEST_CAP, ROBOT_CAP, Faults
 from world.kinematics import MAX_COORD, bad_positions, integrate
-from world.radio import Medium, Outgoing, RadioConfig
+from world.radio import Medium, Outgoing
 from world.registry import HostEntry, Robots
 from world.situated import Situated
 from world.space import SpaceRules
@@ -58,53 +60,50 @@ class Refused(ValueError):
 class Simulation:
     """The world's state and rules; a session or a driver steps it (module docstring)."""
 
-    def __init__(self, spec: dict, on_event: Callable[[dict], None] | None = None,
+    def __init__(self, spec: Scenario, on_event: Callable[[dict], None] | None = None,
                  time: Callable[[], float] | None = None):
-        """``spec``: the world's view of a resolved scenario (``scenario.world_spec``).
+        """``spec``: a resolved scenario (transport/scenario.py; its checks are the runner's).
 
         ``on_event`` gets each event as it happens (the session publishes them); ``time`` is the realtime
         clock (wall-clock seconds); a lockstep simulation's time is its tick.
         """
-        run = spec["run"]
+        run, wspec = spec.run, spec.world
         self.spec = spec
-        self.realtime = run.get("clock", "lockstep") == "realtime"
-        self.seed = int(run.get("seed", 0))
-        self.dt = float(run.get("dt", 1.0))
-        self.trace_commands = bool(run.get("trace_commands", False))  # "cmd" rows: velocities before the cap
-        wspec = spec.get("world", {})
-        self.dims = int(wspec.get("dims", 2))
-        b = wspec.get("bounds")
-        self.bounds = np.array(b, dtype=float) if b else None
-        self.objects: dict[str, list[float]] = {o["name"]: list(map(float, o["pos"])) for o in wspec.get("objects", [])}
-        self.radio = RadioConfig.from_dict(spec.get("radio", {}))
+        self.realtime = run.clock == "realtime"
+        self.seed = run.seed
+        self.dt = float(run.dt)
+        self.trace_commands = run.trace_commands  # "cmd" rows: velocities before the cap
+        self.dims = wspec.dims
+        self.bounds = np.array(wspec.bounds, dtype=float) if wspec.bounds else None
+        self.objects: dict[str, list[float]] = {o.name: list(map(float, o.pos)) for o in wspec.objects}
+        self.radio = spec.radio
         self.medium = Medium(self.radio, self.seed)
         self.tick = 0
         self.time = (time or wall_time) if self.realtime else (lambda: float(self.tick))
         self.now = 0.0  # the clock's time of this tick (``begin``; realtime: of the last ``transmit``)
         self.robots = Robots(self.dims, now=lambda: self.time())
-        self.robots.add(spec["robots"], tick=0)
+        robots = spec.robot_specs()
+        self.robots.add(robots, tick=0)
         self.space: SpaceRules | None = None  # the rules of space (world/space.py), when there are any
-        if (wspec.get("obstacles") or wspec.get("map") or self.dims == 3 or wspec.get("blocking")
-                or (self.robots.body > 0).any()):
-            self.space = SpaceRules(space_from_spec(wspec), self.dims, bool(self.radio.occlusion),
-                                    bool(wspec.get("blocking")))
-        self.known_map = ({"dims": self.dims, "obstacles": wspec.get("obstacles") or [], "map": wspec.get("map")}
-                          if any(s.get("knows_map") for s in spec["robots"]) else None)
+        if wspec.has_space or self.dims == 3 or wspec.blocking or (self.robots.body > 0).any():
+            self.space = SpaceRules(space_from_spec(wspec.space_spec()), self.dims, self.radio.occlusion,
+                                    wspec.blocking)
+        self.known_map = wspec.space_spec() if any(s.knows_map for s in robots) else None
         self.unclaimed: list[int] = list(range(len(self.robots)))
         self.situated = Situated(self.seed, self.radio.rab)  # local frames, bodies' surfaces, clocks, frame.rab
         self.situated.sync(self.robots.spec)
         self.hosts: dict[str, HostEntry] = {}
         self.counters = Counters()
         self.record = TickRecord(self.counters, on_event or (lambda ev: None))
-        self.max_robots = int(wspec.get("max_robots", MAX_ROBOTS))
+        self.max_robots = wspec.max_robots
         if len(self.robots) > self.max_robots:
             raise ValueError(f"{len(self.robots)} robots exceed world.max_robots = {self.max_robots}")
-        self.faults = Faults(spec.get("events", []), self.seed, self.robots, self.hosts, self.medium, self.objects,
+        self.faults = Faults(spec.events, self.seed, self.robots, self.hosts, self.medium, self.objects,
                              self.record, self.max_robots)
         self.stop_request: str | None = None  # a ``stop`` action asked the run to end, for this reason
         self.reports: dict[int, dict] = {}
         self.air = Air(BOOKKEEPING_S if self.realtime else 1.0)
-        self.tables = TickTables(self, {o["name"]: o.get("known_by", "all") for o in wspec.get("objects", [])})
+        self.tables = TickTables(self, {o.name: o.known_by for o in wspec.objects})
         self._last_seq: dict[int, int] = {}  # each robot's last accepted frame seq
         self._outbox: list[Outgoing] = []  # frames taken since the last transmit
         self._due: Copies | None = None  # lockstep: this tick's deliveries (``begin``)
@@ -128,7 +127,7 @@ class Simulation:
             cause = REQUEST_CAP if want > MAX_PER_REQUEST else ROBOT_CAP
             self.faults.refuse(self.tick, cause, reason)
             raise Refused(cause, reason)
-        template = dict(self.spec["robots"][0]) if self.spec["robots"] else {}
+        template = self.robots.spec[0]
         ids = self.robots.add([self._placed_like(template, len(self.robots) + i) for i in range(want)], self.tick)
         self.record.event(self.tick, {"added": ids, "source": "join"})
         return self._give(host, ids)
@@ -165,19 +164,18 @@ class Simulation:
         if self.situated.local[rid]:
             pose = [round(v, POS_DIGITS) for v in self.situated.pose(rid, self.robots.pos[rid],
                                                                      self.robots.heading[rid])]
-        return RobotDescr(rid, pose, s.get("behaviors", []), s.get("kind", "ground"),
-                          float(self.robots.range[rid]), float(self.robots.sensing[rid]),
-                          float(self.robots.speed[rid]), bool(s.get("knows_map", False)),
+        return RobotDescr(rid, pose, s.behaviors, s.kind, float(self.robots.range[rid]),
+                          float(self.robots.sensing[rid]), float(self.robots.speed[rid]), s.knows_map,
                           **self.situated.descr(rid))
 
-    def _placed_like(self, template: dict, rid: int) -> dict:
+    def _placed_like(self, template: RobotSpec, rid: int) -> RobotSpec:
         """Robot ``rid``'s spec for a mid-run join: the template's parameters, a random position in the bounds.
 
         The draw is keyed on (tick, rid), so each robot of one join gets its own position.
         """
         lo, hi = (self.bounds if self.bounds is not None else np.array([[0.0] * self.dims, [1.0] * self.dims]))
         u = rng.uniform(self.seed, rng.PLACEMENT, self.tick, rid, np.arange(self.dims))
-        return {k: v for k, v in template.items() if k != "pos"} | {"pos": list(lo + u * (hi - lo))}
+        return msgspec.structs.replace(template, pos=list(lo + u * (hi - lo)))
 
     def live_hosts(self) -> list[str]:
         return [name for name, h in self.hosts.items() if h.alive]
@@ -197,10 +195,7 @@ class Simulation:
                 reason = f"{source} add of {n} robots (at most {MAX_PER_REQUEST} per add, {self.max_robots} in the run)"
                 self.faults.refuse(self.tick, cause, reason)
                 raise Refused(cause, reason)
-        problem = self.faults.problem(action)
-        if problem:
-            raise ValueError(problem)
-        self.faults.queued.append(action)
+        self.faults.queue(action)
         return self.tick + 1
 
     def _apply(self, action: dict, source: str) -> None:

@@ -29,11 +29,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from transport.scenario import RobotSpec
 from world import rng
 from world.sensing import within
 
 HEADING, OFFSET, DRIFT = 0, 1, 2  # what a per-robot draw is for
-FULL_TURN = [-math.pi, math.pi]  # the default heading offset under local sensing
 
 
 def draw(value, seed: int, rid: int, what: int) -> float:
@@ -98,24 +98,23 @@ class Situated:
         self.rab = rab_all  # some robot's frames carry range and bearing
 
     # ------------------------------------------------------------ robots
-    def sync(self, specs: Sequence[dict]) -> None:
+    def sync(self, specs: Sequence[RobotSpec]) -> None:
         """Take the parameters of robots added since the last call (``specs[i]`` is robot i's resolved spec)."""
         new = specs[self.n :]
         if not new:
             return
         ids = range(self.n, len(specs))
-        local = [s.get("sensing_frame", "global") == "local" for s in new]
+        local = [s.sensing_frame == "local" for s in new]
         self.local = np.concatenate([self.local, local])
-        self.surface = np.concatenate([self.surface, [s.get("sensing_to", "center") == "surface" for s in new]])
-        self.radius = np.concatenate([self.radius, [float(s.get("body_radius", 0.0)) for s in new]])
-        self.sigma_r = np.concatenate([self.sigma_r, [float(s.get("range_noise", 0.0)) for s in new]])
-        self.sigma_b = np.concatenate([self.sigma_b, [float(s.get("bearing_noise", 0.0)) for s in new]])
+        self.surface = np.concatenate([self.surface, [s.sensing_to == "surface" for s in new]])
+        self.radius = np.concatenate([self.radius, [float(s.body_radius) for s in new]])
+        self.sigma_r = np.concatenate([self.sigma_r, [float(s.range_noise) for s in new]])
+        self.sigma_b = np.concatenate([self.sigma_b, [float(s.bearing_noise) for s in new]])
         self.offset = np.concatenate([self.offset, [
-            draw(s.get("heading_offset") or FULL_TURN, self.seed, rid, HEADING) if loc else 0.0
+            draw(s.frame_offset, self.seed, rid, HEADING) if loc else 0.0
             for rid, s, loc in zip(ids, new, local, strict=True)]])
-        self.start += [np.array(s["pos"], dtype=float) for s in new]
-        self.clock += [(draw(s.get("clock_offset", 0.0), self.seed, rid, OFFSET),
-                        draw(s.get("clock_drift", 0.0), self.seed, rid, DRIFT))
+        self.start += [np.array(s.pos, dtype=float) for s in new]
+        self.clock += [(draw(s.clock_offset, self.seed, rid, OFFSET), draw(s.clock_drift, self.seed, rid, DRIFT))
                        for rid, s in zip(ids, new, strict=True)]
         self.n = len(specs)
         self.any_local = bool(self.local.any())

@@ -35,9 +35,10 @@ from hypothesis import strategies as st
 
 from transport.messages import DROP_CAUSES
 from transport.rows import IntRows, packb
+from transport.scenario import Radio
 from transport.severance import Severance
 from world import rng
-from world.radio import Medium, Outgoing, RadioConfig
+from world.radio import Medium, Outgoing
 from world.sensing import reach
 
 # ------------------------------------------------------------------------------------------------ the reference
@@ -195,7 +196,7 @@ def test_the_array_radio_decides_every_pair_as_the_per_frame_reference(scenario)
     p = np.array(pos, dtype=float)
     r = np.array(ranges, dtype=float)
     a = np.array(alive, dtype=bool)
-    medium = Medium(RadioConfig.from_dict(cfg), seed)
+    medium = Medium(Radio.from_dict(cfg), seed)
     medium.links = links
     ref = Reference(cfg, seed)
     table = reach(p, np.flatnonzero(a), r)

@@ -17,8 +17,9 @@ import math
 import numpy as np
 import pytest
 
+from transport.scenario import Radio
 from world.bursts import GilbertElliott
-from world.radio import Medium, Outgoing, RadioConfig
+from world.radio import Medium, Outgoing
 
 Z = 3.29
 
@@ -89,8 +90,11 @@ def test_same_tick_shares_the_state_and_order_does_not_matter():
 
 
 def sparse_rate(cfg: dict, pos: np.ndarray, samples: int = 300) -> tuple[int, int]:
-    """(delivered, sent to a receiver) for one broadcast from robot 0 every 25 ticks (independent states)."""
-    m = Medium(RadioConfig.from_dict({"range": 10.0, **cfg}), seed=9)
+    """(delivered, sent to a receiver) for one broadcast from robot 0 every 25 ticks (independent states).
+
+    The radio is built unchecked (a scenario refuses ``loss`` with gilbert), to show the medium ignores it too.
+    """
+    m = Medium(Radio(**{"range": 10.0, **cfg}), seed=9)
     n = len(pos)
     alive, ranges, reach = np.ones(n, dtype=bool), np.full(n, 10.0), {0: np.arange(1, n)}
     got = lost = 0
@@ -112,7 +116,7 @@ def test_bursts_replace_bernoulli_loss_and_multiply_with_the_distance_model():
     got, n = sparse_rate({**cfg, "loss": 0.5}, pos)
     assert inside(got, n, 1 - pi_b)
     # frames of the same tick share the state: with loss_bad = 1 and loss_good = 0 they all pass or all fail
-    m = Medium(RadioConfig.from_dict({"range": 10.0, **cfg}), seed=9)
+    m = Medium(Radio.from_dict({"range": 10.0, **cfg}), seed=9)
     outcomes = set()
     for t in range(200):
         fs = [Outgoing(0, None, "K", 4 * t + i, b"x") for i in range(4)]
@@ -122,7 +126,7 @@ def test_bursts_replace_bernoulli_loss_and_multiply_with_the_distance_model():
 
 
 def test_bernoulli_is_unchanged_by_default():
-    radio = RadioConfig.from_dict({"range": 10.0, "loss": 0.3})
+    radio = Radio.from_dict({"range": 10.0, "loss": 0.3})
     assert Medium(radio, seed=1).bursts is None
     with pytest.raises(ValueError, match="gilbert"):
-        Medium(RadioConfig.from_dict({"loss_model": "gilbert", "p_gb": 0.1, "p_bg": 0.1}), 1).set_loss(0.2)
+        Medium(Radio.from_dict({"loss_model": "gilbert", "p_gb": 0.1, "p_bg": 0.1}), 1).set_loss(0.2)

@@ -14,7 +14,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from swarmactors.result import Result
-from world.radio import Medium, RadioConfig
+from transport.scenario import Radio
+from world.radio import Medium
 from world.sensing import within
 
 quarter = st.integers(min_value=0, max_value=24).map(lambda k: k / 4)
@@ -51,7 +52,7 @@ def _product(ids, pos, ranges, cuts, groups) -> set[tuple[int, int]]:
     radii = np.zeros(size)
     for i, p in zip(ids, pos, strict=True):
         xy[i], radii[i] = p, ranges[i]
-    medium = Medium(RadioConfig(), seed=1)
+    medium = Medium(Radio(), seed=1)
     for a, b in cuts:
         medium.cut(a, b)
     if groups is not None:

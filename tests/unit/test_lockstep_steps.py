@@ -23,7 +23,7 @@ import numpy as np
 from swarmactors.behavior import Behavior
 from swarmactors.robot import HostSession as RobotHost
 from swarmactors.robot import Robot, run_calls
-from swarmactors.scenario import resolve_scenario, world_spec
+from swarmactors.scenario import resolve
 from tests_support import FakeLink, FakeQuery
 from transport import Keys, seal, unseal
 from transport.messages import (
@@ -49,10 +49,10 @@ class Records(list):
 
 
 def _world(records: list | None = None) -> tuple[World, FakeLink, JoinReply]:
-    sc = resolve_scenario({"run": {"name": "s", "ticks": 5},
+    sc = resolve({"run": {"name": "s", "ticks": 5},
                            "robots": [{"count": 2, "behaviors": [{"use": "beacon"}]}]}, "<t>")
     link = FakeLink()
-    w = World(world_spec(sc), link, Keys("s"), sinks=[records] if records is not None else [])
+    w = World(sc, link, Keys("s"), sinks=[records] if records is not None else [])
     q = FakeQuery(w.keys.join, encode(JoinRequest()))
     w._on_join(q)
     return w, link, decode(q.replies[0][1], JoinReply, what="join reply")

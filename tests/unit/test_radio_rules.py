@@ -44,7 +44,8 @@ from hypothesis import strategies as st
 from scipy import stats
 
 from transport.messages import DROP_CAUSES
-from world.radio import Medium, Outgoing, RadioConfig
+from transport.scenario import Radio
+from world.radio import Medium, Outgoing
 from world.sensing import within
 
 ALPHA = 1e-3
@@ -173,7 +174,7 @@ def expected_outcomes(pos, ranges, alive, severed, frames):
 @given(radio_worlds(), st.booleans())
 def test_receivers_and_drops_match_brute_force(world, reach_from_kd_tree):
     pos, ranges, alive, cuts, restored, labels, frames = world
-    m = Medium(RadioConfig(), seed=1)
+    m = Medium(Radio(), seed=1)
     for a, b in cuts:
         m.cut(a, b)
     for a, b in restored:
@@ -203,14 +204,14 @@ def test_receivers_and_drops_match_brute_force(world, reach_from_kd_tree):
 def test_heterogeneous_ranges_make_one_way_links():
     pos = [[0.0, 0.0], [1.5, 0.0]]
     ranges = [2.0, 1.0]  # 0 reaches 1 (1.5 <= 2), 1 does not reach 0 (1.5 > 1)
-    m = Medium(RadioConfig(), seed=0)
+    m = Medium(Radio(), seed=0)
     got = outcomes(*decide(m, [bcast(0, 1), bcast(1, 1), ucast(0, 1, 2), ucast(1, 0, 2)], pos, ranges))
     assert got == {(0, 1, 1): "delivered", (0, 2, 1): "delivered", (1, 2, 0): "range"}
 
 
 def test_range_edge_is_inclusive():
     pos = [[0.0, 0.0], [3.0, 4.0], [0.0, 5.0 + 1e-7]]  # distances 5 (exactly) and just over 5
-    m = Medium(RadioConfig(), seed=0)
+    m = Medium(Radio(), seed=0)
     got = outcomes(*decide(m, [bcast(0, 1), ucast(0, 1, 2), ucast(0, 2, 3)], pos, [5.0, 5.0, 5.0]))
     assert got == {(0, 1, 1): "delivered", (0, 2, 1): "delivered", (0, 3, 2): "range"}
 
@@ -222,13 +223,13 @@ def test_addressed_frame_and_broadcast_agree_at_the_range_edge():
     pos = np.array([[2.9, 1.1], [3.29, 1.62]])
     ranges = np.array([0.65, 0.65])
     reach = within(pos, np.arange(2), ranges)
-    got = outcomes(*decide(Medium(RadioConfig(), seed=0), [bcast(0, 1), ucast(0, 1, 2)], pos, ranges, reach=reach))
+    got = outcomes(*decide(Medium(Radio(), seed=0), [bcast(0, 1), ucast(0, 1, 2)], pos, ranges, reach=reach))
     assert (got.get((0, 1, 1)) == "delivered") == (got.get((0, 2, 1)) == "delivered"), got
 
 
 def test_addressed_frame_to_dead_or_unknown_robot_is_dropped_as_dead():
     pos = [[0.0, 0.0], [0.1, 0.0], [0.2, 0.0]]
-    m = Medium(RadioConfig(), seed=0)
+    m = Medium(Radio(), seed=0)
     frames = [ucast(0, 1, 1), ucast(0, 2, 2), ucast(0, 3, 3), ucast(0, 10**12, 4), bcast(0, 5)]
     got = outcomes(*decide(m, frames, pos, [1.0] * 3, alive=[True, False, True]))
     assert got == {(0, 1, 1): "dead", (0, 2, 2): "delivered", (0, 3, 3): "dead", (0, 4, 10**12): "dead",
@@ -237,7 +238,7 @@ def test_addressed_frame_to_dead_or_unknown_robot_is_dropped_as_dead():
 
 def test_excluded_robots_overhear_what_they_would_have_received_and_nothing_else_changes():
     pos, ranges = star(30, 0.9, seed=3)
-    cfg = RadioConfig(loss=0.5)
+    cfg = Radio(loss=0.5)
     full = outcomes(*decide(Medium(cfg, seed=8), [bcast(0, 1)], pos, ranges, tick=2))
     excluded = (3, 7, 11, 99)  # 99 is no robot at all: no effect
     part = outcomes(*decide(Medium(cfg, seed=8), [bcast(0, 1, exclude=excluded)], pos, ranges, tick=2))
@@ -249,7 +250,7 @@ def test_excluded_robots_overhear_what_they_would_have_received_and_nothing_else
 
 def test_exclude_filter_removes_receivers_without_a_drop_and_leaves_the_others_alone():
     pos, ranges = star(30, 0.9, seed=3)
-    cfg = RadioConfig(loss=0.5, exclude="filter")
+    cfg = Radio(loss=0.5, exclude="filter")
     full = outcomes(*decide(Medium(cfg, seed=8), [bcast(0, 1)], pos, ranges, tick=2))
     excluded = (3, 7, 11, 99)  # 99 is no robot at all: no effect
     part = outcomes(*decide(Medium(cfg, seed=8), [bcast(0, 1, exclude=excluded)], pos, ranges, tick=2))
@@ -269,7 +270,7 @@ def all_pairs_outcomes(m, n, seq):
 
 def test_cut_restore_partition_and_heal_sequence():
     n = 6
-    m = Medium(RadioConfig(), seed=0)
+    m = Medium(Radio(), seed=0)
     everyone = {(a, b): "delivered" for a in range(n) for b in range(n) if a != b}
 
     def cut_where(severed):
@@ -298,7 +299,7 @@ def test_cut_restore_partition_and_heal_sequence():
 
 def test_cut_wins_over_certain_loss_and_bandwidth_over_cut():
     pos = [[0.0, 0.0], [0.1, 0.0], [0.2, 0.0]]
-    m = Medium(RadioConfig(loss=1.0, bandwidth=10), seed=0)
+    m = Medium(Radio(loss=1.0, bandwidth=10), seed=0)
     m.cut(0, 1)
     got = outcomes(*decide(m, [bcast(0, 1, b"x" * 10), bcast(0, 2, b"y")], pos, [1.0] * 3))
     assert got == {(0, 1, 1): "cut", (0, 1, 2): "loss",  # within the cap: the cut pair is a cut, not a loss
@@ -310,7 +311,7 @@ def test_cut_wins_over_certain_loss_and_bandwidth_over_cut():
 
 def test_bandwidth_cap_in_sending_order_for_every_receiver():
     pos = [[0.0, 0.0], [0.1, 0.0], [0.2, 0.0], [0.3, 0.0]]
-    m = Medium(RadioConfig(bandwidth=100), seed=0)
+    m = Medium(Radio(bandwidth=100), seed=0)
     frames = [bcast(0, 1, b"a" * 40), ucast(0, 2, 2, b"b" * 60), bcast(0, 3, b"c"),  # 40 + 60 = 100: fits; 101
               bcast(1, 1, b"d" * 100), bcast(1, 2, b"")]  # robot 1 has its own budget; an empty body fits
     got = outcomes(*decide(m, frames, pos, [1.0] * 4, tick=5))
@@ -325,7 +326,7 @@ def test_bandwidth_cap_in_sending_order_for_every_receiver():
 
 def test_bandwidth_budget_is_shared_by_the_calls_of_a_tick_and_renewed_each_tick():
     pos = [[0.0, 0.0], [0.1, 0.0]]
-    m = Medium(RadioConfig(bandwidth=10), seed=0)
+    m = Medium(Radio(bandwidth=10), seed=0)
     assert outcomes(*decide(m, [bcast(0, 1, b"x" * 6)], pos, [1.0, 1.0], tick=0)) == {(0, 1, 1): "delivered"}
     # a second uplink of the same tick (realtime) draws on the same budget: 6 + 6 > 10
     assert outcomes(*decide(m, [bcast(0, 2, b"x" * 6)], pos, [1.0, 1.0], tick=0)) == {(0, 2, 1): "bandwidth"}
@@ -336,7 +337,7 @@ def test_a_frame_past_the_cap_still_counts_so_later_frames_of_the_tick_are_dropp
     # The implemented reading of "the frames past the budget, in sending order, are dropped": the running
     # total includes the dropped frame, so a small frame after it is dropped although it would have fitted.
     pos = [[0.0, 0.0], [0.1, 0.0]]
-    m = Medium(RadioConfig(bandwidth=100), seed=0)
+    m = Medium(Radio(bandwidth=100), seed=0)
     frames = [bcast(0, 1, b"a" * 60), bcast(0, 2, b"b" * 60), bcast(0, 3, b"c" * 30)]
     got = outcomes(*decide(m, frames, pos, [1.0, 1.0]))
     assert got == {(0, 1, 1): "delivered", (0, 2, 1): "bandwidth", (0, 3, 1): "bandwidth"}
@@ -345,7 +346,7 @@ def test_a_frame_past_the_cap_still_counts_so_later_frames_of_the_tick_are_dropp
 def test_zero_bandwidth_means_no_cap():
     pos = [[0.0, 0.0], [0.1, 0.0]]
     frames = [bcast(0, s, b"z" * 10_000) for s in range(1, 20)]
-    got = outcomes(*decide(Medium(RadioConfig(bandwidth=0), seed=0), frames, pos, [1.0, 1.0]))
+    got = outcomes(*decide(Medium(Radio(bandwidth=0), seed=0), frames, pos, [1.0, 1.0]))
     assert set(got.values()) == {"delivered"} and len(got) == 19
 
 
@@ -353,7 +354,7 @@ def test_every_frame_sent_counts_against_the_bandwidth_budget():
     # "bytes of frame bodies a robot may send per tick" (docs/scenarios.md): robot 0 sends 60 + 60 + 60 bytes
     # with a cap of 100, so the third frame is past the budget whoever heard the first two.
     pos = [[0.0, 0.0], [0.1, 0.0], [5.0, 5.0]]
-    m = Medium(RadioConfig(bandwidth=100), seed=0)
+    m = Medium(Radio(bandwidth=100), seed=0)
     frames = [bcast(0, 1, b"a" * 60, exclude=[1]), ucast(0, 2, 2, b"b" * 60), ucast(0, 1, 3, b"c" * 60)]
     got = outcomes(*decide(m, frames, pos, [1.0, 1.0, 1.0]))
     assert got[(0, 2, 2)] == "range"
@@ -381,7 +382,7 @@ def many_broadcasts(m, pos, ranges, frames_per_tick=10, ticks=10):
 def test_bernoulli_loss_count_lies_in_the_clopper_pearson_interval(p, seed):
     n_rx = 200
     pos, ranges = star(n_rx, 0.95, seed=seed)
-    got = many_broadcasts(Medium(RadioConfig(loss=p), seed=seed), pos, ranges)
+    got = many_broadcasts(Medium(Radio(loss=p), seed=seed), pos, ranges)
     n = len(got)
     assert n == n_rx * 100
     assert set(got.values()) <= {"delivered", "loss"}
@@ -403,13 +404,13 @@ def test_bernoulli_loss_count_lies_in_the_clopper_pearson_interval(p, seed):
 @pytest.mark.parametrize("p,expected", [(0.0, "delivered"), (1.0, "loss")])
 def test_loss_zero_and_one_are_certain(p, expected):
     pos, ranges = star(50, 0.9)
-    got = many_broadcasts(Medium(RadioConfig(loss=p), seed=5), pos, ranges, frames_per_tick=4, ticks=5)
+    got = many_broadcasts(Medium(Radio(loss=p), seed=5), pos, ranges, frames_per_tick=4, ticks=5)
     assert len(got) == 50 * 20 and set(got.values()) == {expected}
 
 
 def test_set_loss_applies_to_the_next_frames():
     pos, ranges = star(40, 0.9)
-    m = Medium(RadioConfig(loss=0.0), seed=5)
+    m = Medium(Radio(loss=0.0), seed=5)
     assert set(many_broadcasts(m, pos, ranges, 2, 2).values()) == {"delivered"}
     m.set_loss(1.0)
     assert set(outcomes(*decide(m, [bcast(0, 100)], pos, ranges, tick=9)).values()) == {"loss"}
@@ -428,7 +429,7 @@ def test_distance_model_success_rate_per_distance_bin(delta, loss, z, seed):
     n_rx = 400
     pos, ranges = star(n_rx, z, transmitter_range=z, seed=seed)
     ranges[1:] = 0.1  # receivers' own ranges must not matter: Z is the transmitter's
-    got = many_broadcasts(Medium(RadioConfig(model="distance", delta=delta, loss=loss), seed=seed), pos, ranges,
+    got = many_broadcasts(Medium(Radio(model="distance", delta=delta, loss=loss), seed=seed), pos, ranges,
                           frames_per_tick=8, ticks=10)
     assert set(got.values()) <= {"delivered", "loss"}
     dist = {j: math.dist(pos[0], pos[j]) for j in range(1, n_rx + 1)}
@@ -451,14 +452,14 @@ def test_distance_model_success_rate_per_distance_bin(delta, loss, z, seed):
 def test_distance_model_never_loses_below_delta_without_loss():
     pos = np.array([[0.0, 0.0]] + [[0.0299 * k / 10, 0.0] for k in range(1, 11)])
     ranges = np.full(len(pos), 1.0)
-    got = many_broadcasts(Medium(RadioConfig(model="distance", delta=0.03), seed=2), pos, ranges, 20, 10)
+    got = many_broadcasts(Medium(Radio(model="distance", delta=0.03), seed=2), pos, ranges, 20, 10)
     assert set(got.values()) == {"delivered"}
 
 
 def test_distance_model_uses_the_transmitters_range():
     # the same pair, the same draws, only Z changes: a larger transmitter range can only lose fewer frames
     pos = np.array([[0.0, 0.0], [0.8, 0.0]])
-    cfg = RadioConfig(model="distance", delta=0.5)
+    cfg = Radio(model="distance", delta=0.5)
     short = many_broadcasts(Medium(cfg, seed=4), pos, np.array([1.0, 5.0]), 50, 10)
     long = many_broadcasts(Medium(cfg, seed=4), pos, np.array([4.0, 0.1]), 50, 10)
     lost_short = {k for k, v in short.items() if v == "loss"}
@@ -480,7 +481,7 @@ def test_decisions_do_not_depend_on_order_batching_or_medium_instance():
     ranges = g.choice([0.8, 1.5], 15)
     frames = [bcast(int(s), seq) for seq, s in enumerate(g.integers(0, 15, 40), start=1)]
     frames += [ucast(int(s), int(d), 100 + k) for k, (s, d) in enumerate(g.integers(0, 15, (20, 2))) if s != d]
-    cfg = RadioConfig(loss=0.4)
+    cfg = Radio(loss=0.4)
     together = outcomes(*decide(Medium(cfg, seed=3), frames, pos, ranges, tick=7))
     reversed_ = outcomes(*decide(Medium(cfg, seed=3), frames[::-1], pos, ranges, tick=7))
     one_by_one = {}
@@ -499,19 +500,19 @@ def test_decisions_do_not_depend_on_order_batching_or_medium_instance():
 
 def test_realtime_latency_is_uniform_between_c_min_and_c():
     lo, hi = 0.004, 0.02
-    m = Medium(RadioConfig(latency_s=hi, latency_min_s=lo), seed=6)
+    m = Medium(Radio(latency_s=hi, latency_min_s=lo), seed=6)
     lat = np.concatenate([m.latencies_s(t, src, 1, np.arange(2000)) for t in range(5) for src in range(2)])
     assert lat.min() >= lo and lat.max() <= hi
     ks = stats.kstest(lat, "uniform", args=(lo, hi - lo))
     assert ks.pvalue > ALPHA, ks
-    again = Medium(RadioConfig(latency_s=hi, latency_min_s=lo), seed=6).latencies_s(3, 1, 1, np.arange(2000))
+    again = Medium(Radio(latency_s=hi, latency_min_s=lo), seed=6).latencies_s(3, 1, 1, np.arange(2000))
     assert np.array_equal(again, lat[3 * 4000 + 2000: 3 * 4000 + 4000])  # reproducible
     # per (frame, receiver): the same receiver gets the same latency whatever the other receivers
     assert all(m.latencies_s(3, 1, 1, np.array([r]))[0] == again[r] for r in (0, 17, 1999))
 
 
 def test_realtime_latency_without_minimum_is_fixed():
-    for cfg in (RadioConfig(latency_s=0.03), RadioConfig(latency_s=0.03, latency_min_s=0.03)):
+    for cfg in (Radio(latency_s=0.03), Radio(latency_s=0.03, latency_min_s=0.03)):
         lat = Medium(cfg, seed=1).latencies_s(0, 0, 1, np.arange(100))
         assert np.all(lat == 0.03)
 
@@ -519,7 +520,7 @@ def test_realtime_latency_without_minimum_is_fixed():
 def test_latency_draw_is_independent_of_the_loss_draw():
     n_rx = 2000
     pos, ranges = star(n_rx, 0.9, seed=8)
-    m = Medium(RadioConfig(loss=0.5, latency_s=0.02, latency_min_s=0.0), seed=8)
+    m = Medium(Radio(loss=0.5, latency_s=0.02, latency_min_s=0.0), seed=8)
     frames = [bcast(0, s) for s in range(1, 6)]
     reach = brute_reach(pos.tolist(), [True] * len(pos), ranges.tolist(), senders=[0])
     got = outcomes(*decide(m, frames, pos, ranges, tick=4, reach=reach))

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from swarmactors.scenario import resolve_scenario, world_spec
+from swarmactors.scenario import resolve
 from tests_support import FakeLink, FakeQuery
 from transport import Keys
 from transport.messages import JoinRequest, encode
@@ -17,9 +17,9 @@ from world import World
 
 
 def _realtime_world() -> World:
-    sc = resolve_scenario({"run": {"name": "s", "ticks": 5, "clock": "realtime"},
+    sc = resolve({"run": {"name": "s", "ticks": 5, "clock": "realtime"},
                            "robots": [{"count": 3, "behaviors": [{"use": "beacon"}]}]}, "<t>")
-    w = World(world_spec(sc), FakeLink(), Keys("s"))
+    w = World(sc, FakeLink(), Keys("s"))
     w._on_join(FakeQuery(w.keys.join, encode(JoinRequest())))
     return w
 

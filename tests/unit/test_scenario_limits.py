@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from swarmactors.scenario import MAX_FILE_BYTES, ScenarioError, load
+from swarmactors.scenario import MAX_FILE_BYTES, MAX_ITEMS, ScenarioError, load
 
 BASE = """[run]
 ticks = 3
@@ -91,3 +91,52 @@ def test_invalid_utf8_names_the_file(tmp_path):
 def test_a_directory_is_not_a_scenario(tmp_path):
     with pytest.raises(ScenarioError, match="directory"):
         load(tmp_path)
+
+
+def _big_array(path, n: int = 1_500_000) -> None:
+    """A 15 MB scenario whose world.objects is an array of n numbers (the campaign's 1.5 M-element file)."""
+    items = ", ".join(["0.1234567"] * n)
+    path.write_text('[run]\nticks = 3\n\n[[robots]]\ncount = 3\n\n[[robots]]\nbehaviors = [{ use = "beacon" }]\n'
+                    f"positions = [[0, 0], [1, 1]]\n\n[world]\nbounds = [[0, 0], [4, 4]]\nobjects = [{items}]\n")
+
+
+def test_a_file_of_too_many_items_is_refused_by_size_before_it_is_parsed(tmp_path, monkeypatch):
+    """Parsing 1.5 M items takes ~10 s; the count of commas refuses them first, naming the key that holds them."""
+    import tomllib
+
+    path = tmp_path / "huge-array.toml"
+    _big_array(path)
+    assert path.stat().st_size < MAX_FILE_BYTES
+
+    def never(_text):
+        raise AssertionError("the file was parsed")
+
+    monkeypatch.setattr(tomllib, "loads", never)
+    with pytest.raises(ScenarioError) as err:
+        load(path)
+    assert err.value.key == "world.objects" and f"at most {MAX_ITEMS}" in str(err.value), str(err.value)
+
+
+def test_the_item_count_names_arrays_of_tables_by_index(tmp_path):
+    path = tmp_path / "positions.toml"
+    points = ", ".join(["[0.5, 0.5]"] * 600_000)
+    path.write_text(f"[run]\nticks = 3\n\n[[robots]]\ncount = 1\n\n[[robots]]\npositions = [{points}]\n")
+    with pytest.raises(ScenarioError) as err:
+        load(path)
+    assert err.value.key == "robots[1].positions", str(err.value)
+
+
+def test_the_command_exits_2_naming_the_key(tmp_path, capsys):
+    from swarmactors.cli import main
+
+    path = tmp_path / "huge-array.toml"
+    _big_array(path)
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert f"{path}: world.objects: about 1500000 items" in err and not (tmp_path / "out").exists()
+
+
+def test_a_scenario_below_the_item_count_is_parsed_as_usual(tmp_path):
+    path = tmp_path / "many.toml"
+    path.write_text(f"[run]\nticks = 3\n\n[[robots]]\npositions = [{', '.join(['[0.5, 0.5]'] * 2000)}]\n")
+    assert len(load(path)["robots"][0]["positions"]) == 2000

@@ -47,12 +47,13 @@ def minimal(**sections) -> dict:
 
 
 def rejected(raw: dict, key: str, overrides=(), source: str = SRC) -> ScenarioError:
-    """Assert that ``raw`` is refused naming ``source`` and ``key``; return the error."""
+    """Assert that ``raw`` is refused naming ``source`` and ``key`` (or an item or key inside it); return the error."""
     with pytest.raises(ScenarioError) as info:
         resolve_scenario(raw, source, list(overrides))
     err = info.value
-    assert err.source == source and err.key == key, (err.source, err.key, str(err))
-    assert str(err).startswith(f"{source}: {key}: "), str(err)
+    assert err.source == source and (err.key == key or err.key.startswith((f"{key}[", f"{key}."))), (
+        err.source, err.key, str(err))
+    assert str(err).startswith(f"{source}: {err.key}: "), str(err)
     return err
 
 

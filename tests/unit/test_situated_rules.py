@@ -18,18 +18,20 @@ from __future__ import annotations
 
 import math
 
+import msgspec
 import numpy as np
 import pytest
 from scipy import stats
 
+from transport.scenario import RobotSpec
 from world.sensing import within
 from world.situated import Situated, closest_point
 
 ALPHA = 1e-3
 
 
-def spec(pos, **kw) -> dict:
-    return {"pos": list(pos), **kw}
+def spec(pos, **kw) -> RobotSpec:
+    return RobotSpec(pos=list(pos), **kw)
 
 
 def situated(specs, seed=7, rab=False) -> Situated:
@@ -143,7 +145,7 @@ def test_surface_sensing_rows_and_neighbourhood():
     rows = sensed_rows(situated(specs), pos, [0.0] * 3, 1.0)
     # robot 1's surface is 0.9 away (sensed, at its closest point); robot 2's is 1.1 away (not sensed)
     assert rows[0][0] == [1] and rows[0][1] == pytest.approx([0.9, 0.0])
-    local = [dict(specs[0], sensing_frame="local"), specs[1], specs[2]]
+    local = [msgspec.structs.replace(specs[0], sensing_frame="local"), specs[1], specs[2]]
     rows = sensed_rows(situated(local), pos, [math.pi / 2, 0.0, 0.0], 1.0)
     assert rows[0][0] == [1] and rows[0][1] == pytest.approx([0.9, -math.pi / 2])
 

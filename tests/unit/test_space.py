@@ -11,6 +11,7 @@ from shapely.geometry import LineString, Polygon, box
 from swarmactors import maps
 from swarmactors.knownmap import KnownMap
 from swarmactors.occlusion_oracle import Occluders
+from transport.scenario import robot_spec
 from transport.space import Space, convex, space_from_spec
 from world.registry import Robots
 from world.space import SpaceRules
@@ -21,8 +22,9 @@ WINDOW = [{"xy": WALL["xy"], "z": [0.0, 1.0]}, {"xy": WALL["xy"], "z": [1.5, 3.0
 
 
 def robots(specs, dims):
+    """Robots from spec tables, checked and completed as a control add's (a radio range of 1)."""
     r = Robots(dims)
-    r.add(specs, tick=0)
+    r.add([robot_spec(s, dims, 1.0) for s in specs], tick=0)
     return r
 
 
