@@ -41,7 +41,7 @@ from swarmactors.scenario import resolve as resolve_typed
 from swarmactors.scene import Scene
 from swarmactors.trace import TraceHasher
 from swarmactors.viewer import Source, ViewerServer
-from test_bad_input import FLOOD_RAW, PAUSE_AT, FakeLink, FakeQuery, WireRun, _get, _HostThread
+from test_bad_input import FLOOD_RAW, PAUSE_AT, FakeLink, WireRun, _get, _HostThread
 from transport import Endpoints, Keys, Link, host_loss_s, make_config, pack, seal, unpack
 from transport.messages import (
     MAX_PER_REQUEST,
@@ -57,9 +57,9 @@ from transport.messages import (
     decode,
     encode,
 )
+from world import WorldSession
 from world.counters import MORE_MALFORMED, SAMPLES_PER_TICK
 from world.kinematics import MAX_SPEED, bad_positions, velocity_problem
-from world.world import World
 
 HONEST = 30  # FLOOD_RAW's robots
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
@@ -629,16 +629,16 @@ def test_attack_joins_that_never_register_do_not_stall_a_lockstep_run(tmp_path):
 def test_empty_join_is_refused_and_the_error_names_the_claimers():
     sc = resolve_typed({"run": {"name": "j", "ticks": 2, "join_timeout_s": 0.2},
                            "robots": [{"count": 3, "behaviors": [{"use": "beacon"}]}]}, "<t>")
-    w = World(sc, FakeLink(), Keys("j"))
-    empty = FakeQuery(w.keys.join, b"")
-    w._on_join(empty)
+    link = FakeLink()
+    w = WorldSession(sc, link, Keys("j"))
+    w.open()
+    empty = link.query(w.keys.join, b"")
     assert empty.replies[0][0] == "err" and "empty join request" in empty.replies[0][1]
-    assert w.counters.dropped["malformed"] == 1 and len(w.unclaimed) == 3
-    ok = FakeQuery(w.keys.join, encode(JoinRequest(2)))
-    w._on_join(ok)
+    assert w.status()["dropped"]["malformed"] == 1 and w.status()["unclaimed"] == 3
+    ok = link.query(w.keys.join, encode(JoinRequest(2)))
     assert ok.replies[0][0] == "ok"
     with pytest.raises(RuntimeError, match=r"1 robot\(s\) were not claimed.*h0 \(2\).*never registered: h0"):
-        asyncio.run(w._wait_ready())
+        asyncio.run(w.run())
 
 
 # ------------------------------------------------------------------ 7. downlink authentication

@@ -34,11 +34,11 @@ from swarmactors.host import RobotHost
 from swarmactors.launcher import new_run_id, run_world
 from swarmactors.scenario import resolve, resolve_scenario
 from swarmactors.trace import TraceError, TraceWriter, iter_trace, read_trace, verify
-from tests_support import FakeLink, FakeQuery
+from tests_support import FakeLink
 from transport import Endpoints, Keys, Link, MalformedMessage, make_config, pack, seal, unpack
 from transport.codec import unpack_map
-from world.registry import HostEntry
-from world.world import World
+from transport.messages import JoinReply, JoinRequest, Uplink, decode, encode
+from world import Simulation, WorldSession
 
 EXIT_INPUT = 2
 
@@ -294,7 +294,7 @@ class WireRun:
     def run(self):
         driver: list[threading.Thread] = []
 
-        def on_open(world: World, link) -> None:
+        def on_open(world: WorldSession, link) -> None:
             endpoint = link.locators()[0]
             t = threading.Thread(target=self._drive_safely, args=(endpoint,), daemon=True)
             t.start()
@@ -600,19 +600,31 @@ _FUZZ_SPEC = resolve(FUZZ_RAW, "<fuzz>")
 H0_ROBOTS, H1_ROBOTS = {0, 1, 2}, {3, 4}
 
 
-def _fuzz_world(started: bool = True) -> World:
+def _fuzz_sim() -> Simulation:
+    """The fuzz scenario's simulation at tick 0, robots 0-2 run by host h0 and 3-4 by h1."""
     import copy
 
-    world = World(copy.deepcopy(_FUZZ_SPEC), FakeLink(), Keys("fuzz"), sinks=[TraceWriter(None, {})])
-    if started:
-        for name, ids in (("h0", H0_ROBOTS), ("h1", H1_ROBOTS)):
-            world.hosts[name] = HostEntry(name, set(ids), key=bytes(32), registered=True)
-            for rid in ids:
-                world.robots.host[rid] = name
-        world.unclaimed = []
-        world.started = True
-        world.begin()
-    return world
+    sim = Simulation(copy.deepcopy(_FUZZ_SPEC))
+    sim.claim("h0", len(H0_ROBOTS))
+    sim.claim("h1", len(H1_ROBOTS))
+    sim.begin(0, 0.0)
+    return sim
+
+
+def _fuzz_session(register: bool = True) -> tuple[WorldSession, FakeLink, dict[str, JoinReply]]:
+    """The fuzz scenario's world session on a fake link, hosts h0 (robots 0-2) and h1 (3-4) joined (and registered)."""
+    import copy
+
+    link = FakeLink()
+    world = WorldSession(copy.deepcopy(_FUZZ_SPEC), link, Keys("fuzz"), sinks=[TraceWriter(None, {})])
+    world.open()
+    joined = {}
+    for count in (len(H0_ROBOTS), len(H1_ROBOTS)) if register else ():
+        q = link.query(world.keys.join, encode(JoinRequest(count)))
+        j = decode(q.replies[0][1], JoinReply, what="join reply")
+        joined[j.host] = j
+        link.query(world.keys.up(j.host), seal(j.key, encode(Uplink(j.host, -1))))
+    return world, link, joined
 
 
 @FUZZ
@@ -649,15 +661,13 @@ def _has_nan(v) -> bool:
 @given(st.binary(max_size=64) | VALUES.map(pack) | st.builds(
     lambda h, t, r: pack({"h": h, "t": t, "r": r}), st.sampled_from(["h0", "h1", "hx"]) | VALUES, VALUES, VALUES))
 def test_fuzz_decode_up_returns_a_map_or_counts_malformed(payload):
-    world = _fuzz_world()
-    before = world.counters.dropped["malformed"]
-    msg = world._decode_up("h0", payload)
-    after = world.counters.dropped["malformed"]
-    if msg is None:
-        assert after == before + 1
-    else:
-        assert after == before
-        assert msg.host == "h0" and type(msg.tick) is int
+    """Whatever comes on up/h0, sealed with h0's key or not, the session counts it once or holds it as a step."""
+    world, link, joined = _fuzz_session()
+    counted = world.sim.counters.dropped
+    link.put(world.keys.up("h0"), payload)  # not sealed with h0's key: counted, whatever it holds
+    assert counted["malformed"] == 1
+    link.put(world.keys.up("h0"), seal(joined["h0"].key, payload))  # sealed: a step (held) or counted once
+    assert counted["malformed"] in (1, 2)
 
 
 ROBOT_IDS = st.sampled_from([0, 1, 2, 3, 4, -1, 5, 99, True, False, 2**64 - 1]) | INTS
@@ -691,22 +701,22 @@ def test_fuzz_absorb_and_record_never_crash_the_world(records, reports):
     It counts what it cannot use, never touches robots h0 does not run, and can still record and end
     the tick.
     """
-    world = _fuzz_world()
-    msg = unpack(pack({"h": "h0", "t": 0, "r": records, "rep": reports}))  # as it arrives off the wire
-    before = world.counters.dropped["malformed"]
-    msg = world._decode_up("h0", seal(world.hosts["h0"].key, pack(msg)))  # sealed as host h0 does
-    if msg is None:  # refused whole by the message definition: counted once
-        assert world.counters.dropped["malformed"] == before + 1
-    else:
-        if msg.reports is not None:
-            world._take_reports("h0", msg.reports)
-        world._take("h0", msg)
-    world.end()
+    sim = _fuzz_sim()
+    data = pack(unpack(pack({"h": "h0", "t": 0, "r": records, "rep": reports})))  # as it arrives off the wire
+    try:
+        msg = decode(data, Uplink, what="uplink")
+    except MalformedMessage:  # refused whole by the message definition (the session counts it once)
+        return
+    if msg.reports is not None:
+        sim.take_reports("h0", msg.reports)
+    sim.take("h0", msg)
+    sim.transmit()
+    sim.end()
     for rid in H1_ROBOTS:
-        assert world.robots.alive[rid], f"h0 killed h1's robot {rid}"
-        assert not world.robots.vel[rid].any(), f"h0 moved h1's robot {rid}"
-        assert world.counters.sent_by.get(rid, 0) == 0, f"h0 sent a frame as h1's robot {rid}"
-        assert rid not in world.reports, f"h0 wrote h1's robot {rid}'s report"
+        assert sim.robots.alive[rid], f"h0 killed h1's robot {rid}"
+        assert not sim.robots.vel[rid].any(), f"h0 moved h1's robot {rid}"
+        assert sim.counters.sent_by.get(rid, 0) == 0, f"h0 sent a frame as h1's robot {rid}"
+        assert rid not in sim.reports, f"h0 wrote h1's robot {rid}'s report"
 
 
 @FUZZ
@@ -715,12 +725,17 @@ def test_fuzz_absorb_and_record_never_crash_the_world(records, reports):
 @example(0, [2**64 - 1, "K", 1, b"", []])
 @example(0, [None, "K", 1, b"", [2**64 - 1, -(2**63)]])
 def test_fuzz_check_frame_and_transmit(src, frame):
-    world = _fuzz_world()
+    sim = _fuzz_sim()
     row = [src, None, [frame], None, None]
-    msg = world._decode_up("h0", seal(world.hosts["h0"].key, pack({"h": "h0", "t": 0, "r": [row]})))
-    if msg is not None:
-        world._take("h0", msg)
-    world.end()
+    try:
+        msg = decode(pack({"h": "h0", "t": 0, "r": [row]}), Uplink, what="uplink")
+    except MalformedMessage:
+        return
+    sim.take("h0", msg)
+    sim.transmit()
+    sim.end()
+    sim.begin(1, 1.0)  # the copies fall due
+    sim.end()
 
 
 @FUZZ
@@ -737,26 +752,23 @@ def test_fuzz_check_frame_and_transmit(src, frame):
 @example(pack({"cmd": "move", "args": {"object": "target", "pos": "there"}}))
 @example(pack({"cmd": "run_to", "tick": "soon"}))
 def test_fuzz_control_answers_once_and_never_crashes_the_world(payload):
-    world = _fuzz_world()
-    q = FakeQuery(world.keys.control, payload)
-    world._on_control(q)
+    world, link, _ = _fuzz_session()
+    q = link.query(world.keys.control, payload)
     assert len(q.replies) == 1, q.replies
     kind, data = q.replies[0]
     assert kind == "ok"
     answer = unpack(data)
     assert isinstance(answer, dict) and isinstance(answer.get("ok"), bool)
     # what it queued is applied at the next tick: that must not crash the world either
-    world.clock._tick += 1
-    world.begin()
-    world.end()
+    world.sim.begin(1, 1.0)
+    world.sim.end()
 
 
 @FUZZ
 @given(st.binary(max_size=32) | VALUES.map(pack) | VALUES.map(lambda c: pack({"count": c})))
 def test_fuzz_join_answers_once_and_never_crashes(payload):
-    world = _fuzz_world(started=False)
-    q = FakeQuery(world.keys.join, payload)
-    world._on_join(q)
+    world, link, _ = _fuzz_session(register=False)
+    q = link.query(world.keys.join, payload)
     assert len(q.replies) == 1
     kind, data = q.replies[0]
     if kind == "ok":

@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from swarmactors.conformance import families, run_case
+from swarmactors.inprocess import run_inprocess
 from swarmactors.launcher import run
 
 pytestmark = pytest.mark.slow
@@ -94,6 +95,12 @@ def test_every_quick_lockstep_case_is_pinned():
 def test_shipped_scenario_trace_hash_is_pinned(name, processes, tmp_path):
     result = run(SCENARIOS / name, out=tmp_path, processes=processes)
     assert result["trace_hash"] == SCENARIO_PINS[name]
+
+
+@pytest.mark.parametrize("name", sorted(SCENARIO_PINS))
+def test_shipped_scenario_in_process_has_the_same_pinned_hash(name, tmp_path):
+    """The Simulation and two robot runtimes in one loop, no Zenoh (swarmactors/inprocess.py): the same hash."""
+    assert run_inprocess(SCENARIOS / name, out=tmp_path, hosts=2)["trace_hash"] == SCENARIO_PINS[name]
 
 
 @pytest.mark.parametrize("case_name", sorted(CASE_PINS))

@@ -37,22 +37,50 @@ class Clock(Behavior):
 
 
 class FakeLink:
-    """Enough of transport.Link for a World or a host driven by hand, below Zenoh: puts are recorded."""
+    """Enough of transport.Link for a world session or a host driven by hand, below Zenoh.
+
+    Puts are recorded in ``published``; ``query`` and ``put`` reach the handlers the session declared with
+    ``serve`` and ``subscribe`` (key expressions with ``*`` match one chunk), as Zenoh would deliver them.
+    """
 
     def __init__(self):
         self.published: list[tuple[str, bytes]] = []
+        self._served: list[tuple[str, object]] = []
+        self._subscribed: list[tuple[str, object]] = []
 
     def publish(self, key, data, *, reliable=True):
         self.published.append((key, data))
 
-    def serve(self, *a, **k):
-        pass
+    def serve(self, key, handler):
+        self._served.append((key, handler))
 
-    def subscribe(self, *a, **k):
-        pass
+    def subscribe(self, key, handler):
+        self._subscribed.append((key, handler))
 
     def watch_liveliness(self, *a, **k):
         pass
+
+    def declare_token(self, *a, **k):
+        pass
+
+    def query(self, key: str, payload: bytes) -> FakeQuery:
+        """A query on ``key``, answered by the handler serving it; returns it with its replies."""
+        q = FakeQuery(key, payload)
+        for pattern, handler in self._served:
+            if _matches(pattern, key):
+                handler(q)
+        return q
+
+    def put(self, key: str, payload: bytes) -> None:
+        """A put on ``key``, handed to every subscriber of it."""
+        for pattern, handler in self._subscribed:
+            if _matches(pattern, key):
+                handler(key, payload)
+
+
+def _matches(pattern: str, key: str) -> bool:
+    a, b = pattern.split("/"), key.split("/")
+    return len(a) == len(b) and all(x == "*" or x == y for x, y in zip(a, b, strict=True))
 
 
 class FakeQuery:

@@ -1,6 +1,6 @@
 """The lockstep step path below Zenoh (issue 28): steps are puts, inputs are puts on ``down/{host}``.
 
-A World is driven by hand through a fake link that records what it publishes; a host session's downlink filter
+A world session is driven by hand through a fake link that records what it publishes; a host session's downlink filter
 is checked against a fake link that plays its world, and a robot's hook order without a session. Rules:
 
 * a registration (tick -1) is a query answered at once; a step is a put, held until the barrier;
@@ -24,7 +24,7 @@ from swarmactors.behavior import Behavior
 from swarmactors.robot import HostSession as RobotHost
 from swarmactors.robot import Robot, run_calls
 from swarmactors.scenario import resolve
-from tests_support import FakeLink, FakeQuery
+from tests_support import FakeLink
 from transport import Keys, seal, unseal
 from transport.messages import (
     PROTOCOL_VERSION,
@@ -40,7 +40,7 @@ from transport.messages import (
     decode,
     encode,
 )
-from world import World
+from world import WorldSession
 
 
 class Records(list):
@@ -48,17 +48,17 @@ class Records(list):
         self.append(rec)
 
 
-def _world(records: list | None = None) -> tuple[World, FakeLink, JoinReply]:
-    sc = resolve({"run": {"name": "s", "ticks": 5},
-                           "robots": [{"count": 2, "behaviors": [{"use": "beacon"}]}]}, "<t>")
+def _world(records: list | None = None, watchdog_s: float = 10.0) -> tuple[WorldSession, FakeLink, JoinReply]:
+    sc = resolve({"run": {"name": "s", "ticks": 5, "watchdog_s": watchdog_s},
+                  "robots": [{"count": 2, "behaviors": [{"use": "beacon"}]}]}, "<t>")
     link = FakeLink()
-    w = World(sc, link, Keys("s"), sinks=[records] if records is not None else [])
-    q = FakeQuery(w.keys.join, encode(JoinRequest()))
-    w._on_join(q)
+    w = WorldSession(sc, link, Keys("s"), sinks=[records] if records is not None else [])
+    w.open()
+    q = link.query(w.keys.join, encode(JoinRequest()))
     return w, link, decode(q.replies[0][1], JoinReply, what="join reply")
 
 
-def _up(w: World, j: JoinReply, tick: int) -> bytes:
+def _up(w: WorldSession, j: JoinReply, tick: int) -> bytes:
     return seal(j.key, encode(Uplink(j.host, tick)))
 
 
@@ -69,10 +69,8 @@ def _down(j: JoinReply, data: bytes):
 def test_registration_is_a_query_answered_at_once_and_steps_are_puts():
     records = Records()
     w, link, j = _world(records)
-    reg = FakeQuery(w.keys.up(j.host), _up(w, j, -1))
-    w._on_step_query(reg)
+    reg = link.query(w.keys.up(j.host), _up(w, j, -1))
     assert reg.replies[0][0] == "ok" and isinstance(_down(j, reg.replies[0][1]), Ack)
-    assert w._ready.is_set() and w._held[j.host][0] == -1
 
     async def tick0():
         w.started = True
@@ -83,29 +81,28 @@ def test_registration_is_a_query_answered_at_once_and_steps_are_puts():
         assert key == w.keys.down(j.host)
         inputs = _down(j, data)
         assert isinstance(inputs, Inputs) and inputs.tick == 0 and [r.id for r in inputs.robots] == [0, 1]
-        as_query = FakeQuery(w.keys.up(j.host), _up(w, j, 0))
-        w._on_step_query(as_query)  # the awaited tick, but as a query: refused, not held
+        as_query = link.query(w.keys.up(j.host), _up(w, j, 0))  # the awaited tick, but as a query: refused
         assert as_query.replies[0][0] == "err" and "steps are puts" in as_query.replies[0][1]
-        w._on_up_put(w.keys.up(j.host), _up(w, j, 1))  # future
+        link.put(w.keys.up(j.host), _up(w, j, 1))  # future
         assert not task.done()
-        w._on_up_put(w.keys.up(j.host), _up(w, j, 0))  # the awaited step: the barrier opens
-        w._on_up_put(w.keys.up(j.host), _up(w, j, 0))  # a replay while it is held
+        link.put(w.keys.up(j.host), _up(w, j, 0))  # the awaited step: the barrier opens
+        link.put(w.keys.up(j.host), _up(w, j, 0))  # a replay while it is held
         await asyncio.wait_for(task, 1.0)
         w.end()
 
     asyncio.run(tick0())
     mal = records[0].get("mal", [])
-    assert w.counters.dropped["malformed"] == 3, mal
+    assert w.status()["dropped"]["malformed"] == 3, mal
     assert any("as a query" in m for m in mal) and any("future step" in m for m in mal)
     assert any("second step" in m for m in mal)
 
 
 def test_a_host_lost_to_the_watchdog_is_told_gone_and_so_is_its_late_step(monkeypatch):
-    import world.world as ww
+    import world.session as ws
 
-    monkeypatch.setattr(ww, "host_loss_s", lambda _watchdog_s: 0.05)  # not 2·watchdog_s + 5 s in a unit test
+    monkeypatch.setattr(ws, "host_loss_s", lambda _watchdog_s: 0.05)  # not 2·watchdog_s + 5 s in a unit test
     w, link, j = _world()
-    w._on_step_query(FakeQuery(w.keys.up(j.host), _up(w, j, -1)))
+    link.query(w.keys.up(j.host), _up(w, j, -1))
 
     async def silent_tick():
         w.started = True
@@ -113,13 +110,13 @@ def test_a_host_lost_to_the_watchdog_is_told_gone_and_so_is_its_late_step(monkey
         await w.exchange()  # the host never steps
 
     asyncio.run(silent_tick())
-    assert not w.hosts[j.host].alive
+    assert j.host not in w.status()["hosts"]
     gone = [_down(j, d) for k, d in link.published if k == w.keys.down(j.host)]
     assert isinstance(gone[-1], Stop) and gone[-1].gone
     link.published.clear()
-    w._on_up_put(w.keys.up(j.host), _up(w, j, 0))  # it wakes up and steps: told again, nothing counted
+    link.put(w.keys.up(j.host), _up(w, j, 0))  # it wakes up and steps: told again, nothing counted
     (key, data), = link.published
-    assert _down(j, data).gone and w.counters.dropped["malformed"] == 0
+    assert _down(j, data).gone and w.status()["dropped"]["malformed"] == 0
 
 
 class _World:
