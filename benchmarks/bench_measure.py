@@ -522,13 +522,14 @@ def summarise_profile(stats: pstats.Stats, top: int = 15) -> dict:
         "components": dict(sorted(((k, round(s, 4)) for k, s in comps.items()), key=lambda kv: -kv[1])),
         "stages": {
             "LockstepClock.run": cum("world/clock.py", "run"),
-            "  World.begin": cum("world/world.py", "begin"),
-            "  World.exchange": cum("world/world.py", "exchange"),
-            "  World._deliver_due": cum("world/world.py", "_deliver_due"),
-            "  World._inputs_for": cum("world/world.py", "_inputs_for"),
-            "  World._take": cum("world/world.py", "_take"),
-            "  World.end": cum("world/world.py", "end"),
-            "World._on_up_put": cum("world/world.py", "_on_up_put"),
+            "  Simulation.begin": cum("world/sim.py", "begin"),
+            "  WorldSession.exchange": cum("world/session.py", "exchange"),
+            "  Simulation.deliver": cum("world/sim.py", "deliver"),
+            "  Simulation.inputs": cum("world/sim.py", "inputs"),
+            "  Simulation.take": cum("world/sim.py", "take"),
+            "  Simulation.transmit": cum("world/sim.py", "transmit"),
+            "  Simulation.end": cum("world/sim.py", "end"),
+            "WorldSession._on_up_put": cum("world/session.py", "_on_up_put"),
             "HostSession._run_lockstep": cum("swarmactors/robot/session.py", "_run_lockstep"),
             "  RobotRuntime.step": cum("swarmactors/robot/runtime.py", "step"),
             "HostSession._on_down": cum("swarmactors/robot/session.py", "_on_down"),
@@ -615,7 +616,7 @@ def profile_k2(n: int, ticks: int) -> dict:
     wall = result.data["wall_s"]
 
     # busy = time running the tick loop's own code (coroutine time counts only while resumed)
-    world_busy = world["stages"]["LockstepClock.run"] + world["stages"]["World._on_up_put"]
+    world_busy = world["stages"]["LockstepClock.run"] + world["stages"]["WorldSession._on_up_put"]
     host_busy = [h["stages"]["HostSession._run_lockstep"] + h["stages"]["HostSession._on_down"] for h in hosts]
     return {
         "n": n,

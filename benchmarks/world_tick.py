@@ -18,11 +18,11 @@ directory and shadows the installed package through PYTHONPATH.
 ``stages``: CPU time (of the world's thread) of the world's stages inside one K = 2 run (begin, the radio,
 deliveries, inputs, the trace record and hash), from wrappers installed in the world process.
 
-``inproc``: the same lockstep beacon with the world and K robot hosts in one process and no Zenoh: the world's
-downlinks go straight to its hosts' steps and their uplinks back (the bytes the real run sends, sealed and
-decoded the same way), so CPU time splits exactly between the world's Python work (its tick, encoding the
-inputs, decoding the uplinks) and the hosts' (decoding, stepping with ``RobotRuntime.step``, encoding). Each
-run is a fresh process on this tree or the baseline's (which must have ``swarmactors.robot``), interleaved;
+``inproc``: the same lockstep beacon with the world's ``Simulation`` and K ``RobotRuntime``s in one process and
+no Zenoh, handing each other the bytes the real run sends (sealed and decoded the same way), so CPU time splits
+exactly between the world's Python work (its tick, encoding the inputs, decoding the uplinks) and the hosts'
+(decoding, stepping, encoding). Each run is a fresh process on this tree or the baseline's (which must have
+``world.Simulation``), interleaved;
 the trace hash must be the same as the real run's. ``--profile``
 prints a cProfile of this tree's world part.
 
@@ -55,7 +55,7 @@ def main():
         sc["run"]["trace"] = trace
     spent = {}
     if stages:
-        from world import World
+        from world import Simulation
         from swarmactors import trace as tr
         def wrap(cls, name):
             f = getattr(cls, name)
@@ -66,8 +66,8 @@ def main():
                 finally:
                     spent[name] = spent.get(name, 0.0) + time.thread_time() - t
             setattr(cls, name, g)
-        for name in ("begin", "_transmit", "_deliver_due", "_inputs_for", "_take", "end", "_down"):
-            wrap(World, name)
+        for name in ("begin", "inputs", "take", "transmit", "deliver", "end"):
+            wrap(Simulation, name)
         wrap(tr.TraceWriter, "record")
     t0, p0 = os.times(), time.process_time()
     r = run(sc, out=out, processes=k)
@@ -85,73 +85,56 @@ from swarmactors.hosting import quiet_gc
 from swarmactors.robot import RobotRuntime
 from swarmactors.scenario import resolve
 from swarmactors.trace import TraceWriter
-from transport import Keys, seal, unseal
-from transport.messages import Downlink, JoinReply, JoinRequest, Uplink, decode, encode
-from world import World
+from transport import seal, unseal
+from transport.messages import Downlink, RunInfo, Uplink, decode, encode
+from world import Simulation
 
-class Link:
-    def __init__(self, on_put=None):
-        self.on_put = on_put
-    def publish(self, key, data, *, reliable=True):
-        if self.on_put is not None:
-            self.on_put(key, data)
-    def serve(self, *a, **k):
-        pass
-    subscribe = watch_liveliness = declare_token = serve
-
-class Query:
-    def __init__(self, key, payload):
-        self.key, self.payload, self.replies = key, payload, []
-    def reply(self, data):
-        self.replies.append(data)
-    def reply_error(self, message):
-        raise RuntimeError(message)
+KEY = bytes(32)
 
 def main():
     n, ticks, k, profile = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3]), sys.argv[4] == "1"
     raw = {"run": {"name": "wt", "seed": 1, "ticks": ticks, "trace": False}, "radio": {"range": 1.5},
            "robots": [{"count": n, "placement": "grid", "spacing": 1.0,
                        "behaviors": [{"use": "protocols.beacon.behavior:Beacon", "every": 1}]}]}
-    keys = Keys("wt")
-    hosts, spent = {}, {"host": 0.0}
-    loop = asyncio.new_event_loop()
-    def on_down(key, data):  # Zenoh's part: the downlink reaches its host, whose step's uplink reaches the world
-        host = hosts.get(key.rsplit("/", 1)[-1])
-        if host is not None:
-            loop.call_soon(lambda: asyncio.ensure_future(step(host, data)))
-    async def step(host, data):  # what a host session does with a downlink, around its runtime's step
-        name, key, runtime = host
-        t = time.process_time()
-        msg = decode(unseal(key, data, what="downlink"), Downlink, what="downlink")
-        if type(msg).__name__ != "Inputs":
-            return
-        out = await runtime.step(msg)
-        up = seal(key, encode(Uplink(name, msg.tick, out)))
-        spent["host"] += time.process_time() - t
-        w._on_up_put(keys.up(name), up)
     trace = TraceWriter(None, {}, mode="off")
-    w = World(resolve(raw, "<bench>"), Link(on_down), keys, sinks=[trace])
+    sim = Simulation(resolve(raw, "<bench>"))
+    run = RunInfo("lockstep", sim.dt, sim.seed, ticks, 10.0, 0)
+    hosts = {}
     per = -(-n // k)
     for i in range(k):
-        q = Query(keys.join, encode(JoinRequest(min(per, n - i * per))))
-        w._on_join(q)
-        j = decode(q.replies[0], JoinReply, what="join reply")
-        runtime = RobotRuntime(j.run)
-        runtime.adopt(j.robots)
-        hosts[j.host] = (j.host, j.key, runtime)
-        w._on_step_query(Query(keys.up(j.host), seal(j.key, encode(Uplink(j.host, -1)))))
-    w.started = True
+        runtime = RobotRuntime(run, (), f"h{i}")
+        runtime.adopt(sim.claim(f"h{i}", min(per, n - i * per)))
+        hosts[f"h{i}"] = runtime
+    spent = {"host": 0.0}
+
+    async def host_step(name, data):  # what a host session does with a downlink, around its runtime's step
+        t = time.process_time()
+        msg = decode(unseal(KEY, data, what="downlink"), Downlink, what="downlink")
+        out = await hosts[name].step(msg)
+        up = seal(KEY, encode(Uplink(name, msg.tick, out)))
+        spent["host"] += time.process_time() - t
+        return up
+
+    async def loop():  # the world session's lockstep tick, with the bytes the real run sends
+        for tick in range(ticks):
+            sim.begin(tick, float(tick))
+            ups = {h: await host_step(h, seal(KEY, encode(sim.inputs(h)))) for h in sorted(hosts)}
+            for h, up in ups.items():
+                sim.take(h, decode(unseal(KEY, up, what="uplink"), Uplink, what="uplink"))
+            sim.transmit()
+            trace.record(sim.end())
+
     prof = cProfile.Profile() if profile else None
     with quiet_gc():  # as the world's and the hosts' processes do
         t0 = time.process_time()
         if prof:
             prof.enable()
-        loop.run_until_complete(w.clock.run(w))
+        asyncio.run(loop())
         if prof:
             prof.disable()
         total = time.process_time() - t0
-    res = {"world_cpu": total - spent["host"], "host_cpu": spent["host"], "deliveries": w.counters.delivered,
-           "ticks": w.ticks_done, "hash": trace.trace_hash}
+    res = {"world_cpu": total - spent["host"], "host_cpu": spent["host"], "deliveries": sim.counters.delivered,
+           "ticks": ticks, "hash": trace.trace_hash}
     if prof:
         st = pstats.Stats(prof, stream=sys.stderr)
         st.sort_stats("tottime").print_stats(35)
@@ -309,7 +292,7 @@ def main(argv: list[str] | None = None) -> int:
     g.add_argument("--base", default=None, help="also run this commit's tree, interleaved, and compare")
     g.add_argument("--repeats", type=int, default=3)
     i = sub.add_parser("inproc")
-    i.add_argument("--base", default="0dc0e96")
+    i.add_argument("--base", default="0fcb11d", help="a commit with world.Simulation (Core v3 or later)")
     i.add_argument("--n", type=int, nargs=1, default=[1000])
     i.add_argument("--k", type=int, default=2)
     i.add_argument("--ticks", type=int, default=30)
