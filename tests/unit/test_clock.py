@@ -104,23 +104,26 @@ def test_make_clock_by_name():
     assert isinstance(make_clock("realtime", 1, 1.0), RealtimeClock)
 
 
-def test_bucket_groups_cover_each_copy_once_and_never_fire_before_a_copy_is_due():
-    """The world's realtime bookkeeping: one clock item per span of due times, fired at its longest delay."""
-    import math
-
+def test_the_air_keeps_each_copy_once_and_never_lets_it_out_before_it_is_due():
+    """The world's realtime bookkeeping (world/air.py): copies by slot of due times, each slot out at its end."""
     import numpy as np
 
-    from world.clock import BUCKET_S
-    from world.world import BOOKKEEPING_S, bucket_groups
+    from world.air import Air, Copies
+    from world.sim import BOOKKEEPING_S
 
     rng = np.random.default_rng(3)
     now = 1234.56789
-    delay = np.r_[rng.uniform(0.008, 0.012, 500), np.full(20, 0.01), [0.0]]
-    groups = bucket_groups(delay, now)
-    idx = np.concatenate(groups)
-    assert sorted(idx.tolist()) == list(range(len(delay)))  # every copy once
-    for g in groups:
-        assert (np.diff(g) > 0).all()  # in their original order
-        fire = math.ceil((now + delay[g].max()) / BUCKET_S) * BUCKET_S  # when the clock fires the group's item
-        assert (now + delay[g] <= fire).all()  # never before a copy's due time
-        assert fire - (now + delay[g].min()) <= BOOKKEEPING_S + BUCKET_S + 1e-12  # nor a span after it
+    due = now + np.r_[rng.uniform(0.008, 0.012, 500), np.full(20, 0.01), [0.0]]
+    n = len(due)
+    air = Air(BOOKKEEPING_S)
+    slots = air.put(Copies(np.arange(n), np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64),
+                           np.arange(n), np.zeros(n, dtype=np.int64), due, np.zeros(n, dtype=bool), []))
+    assert slots == sorted(set(slots)) and len(air) == n  # one timer a slot
+    seen = []
+    for slot in slots:
+        end = slot * BOOKKEEPING_S
+        out = air.pop(end)
+        assert (out.due <= end + 1e-12).all()  # never before a copy's due time
+        assert (end - out.due <= BOOKKEEPING_S + 1e-12).all()  # nor a slot after it
+        seen += out.seq.tolist()
+    assert sorted(seen) == list(range(n)) and len(air) == 0  # every copy once

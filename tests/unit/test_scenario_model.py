@@ -32,8 +32,6 @@ from hypothesis import strategies as st
 
 from swarmactors import schema as schema_doc
 from swarmactors.scenario import ScenarioError, load, resolve, resolve_scenario
-from test_bad_input import FakeLink
-from transport import Keys
 from transport.scenario import (
     MAX_COORD,
     MAX_OBSTACLE_RAYS,
@@ -50,8 +48,8 @@ from transport.scenario import (
     robot_spec,
     robots_to_dicts,
 )
+from world import Simulation
 from world.radio import Medium
-from world.world import World
 
 SCENARIOS = sorted((Path(__file__).resolve().parents[2] / "scenarios").glob("*.toml"))
 SRC = "model.toml"
@@ -221,7 +219,7 @@ def test_a_scenario_refuses_exactly_what_add_refuses(params, pos, dims):
 
 
 def test_a_queued_control_add_gets_the_scenario_defaults():
-    world = World(resolve(base(radio={"range": 2.5}), SRC), FakeLink(), Keys("model"))
+    world = Simulation(resolve(base(radio={"range": 2.5}), SRC))
     world.faults.queue({"add": [{"pos": [1.0, 1.0]}, {"pos": [0, 0], "range": 0.5}]})
     (action,) = world.faults.queued
     assert [(s.range, s.sensing, s.pos) for s in action["add"]] == [(2.5, 2.5, [1.0, 1.0]), (0.5, 0.5, [0.0, 0.0])]
@@ -234,7 +232,7 @@ def test_control_commands_and_scenario_events_apply_alike():
     """A queued command is typed as the scenario event of the same name, so the world applies both one way."""
     raw = base(world={"objects": [{"name": "t", "pos": [0, 0]}]}, robots=[{"count": 4}],
                events=[{"at": 0, "move": {"object": "t", "pos": [1, 1]}}, {"at": 0, "kill": 3}])
-    world = World(resolve(raw, SRC), FakeLink(), Keys("model"))
+    world = Simulation(resolve(raw, SRC))
     commands = {"kill": 2, "kill_fraction": 0.0, "add": [{"pos": [0.5, 0.5]}], "cut": [[0, 1]],
                 "restore": [[0, 1]], "partition": [[0], [1]], "heal": True, "loss": 0.1,
                 "move": {"object": "t", "pos": [2, 2]}}
