@@ -24,7 +24,6 @@ from typing import Protocol
 from transport import Keys, Link, MalformedMessage, PendingQuery, host_loss_s, new_key, pack, seal, unseal
 from transport.auth import verifies
 from transport.messages import (
-    CLOCK_COMMANDS,
     PROTOCOL_VERSION,
     Ack,
     ControlCommand,
@@ -37,7 +36,9 @@ from transport.messages import (
     encode,
 )
 from transport.scenario import Scenario
+from world.barrier import Barrier
 from world.clock import LockstepClock, make_clock
+from world.control import control_answer
 from world.sim import Refused, Simulation
 
 log = logging.getLogger(__name__)
@@ -90,9 +91,7 @@ class WorldSession:
         self.interrupted = False  # stopped by a signal: reports are awaited INTERRUPT_REPORTS_S at most
         self.stop_reason: str | None = None
         self.wall_s = 0.0
-        self._held: dict[str, tuple[int, Uplink | None]] = {}  # each host's pending step (-1: registration)
-        self._awaited_tick = -1
-        self._all_stepped = asyncio.Event()
+        self.barrier = Barrier()  # lockstep: each host's pending step (world/barrier.py)
         self._ready = asyncio.Event()
         self._final_reports = asyncio.Event()
         self._rt_pending: list[tuple[str, Uplink]] = []  # realtime: uplinks received, not taken yet
@@ -141,7 +140,7 @@ class WorldSession:
             self.stop_reason = reason
         self.interrupted = self.interrupted or interrupted
         self.clock.stop()
-        self._all_stepped.set()
+        self.barrier.all_in.set()
         self._ready.set()
 
     # ------------------------------------------------------------ the tick (driven by the clock)
@@ -158,17 +157,16 @@ class WorldSession:
             for host in self._live_hosts():
                 self._send(host, self.sim.inputs(host, epoch=self.clock.epoch))
             return
-        self._awaited_tick = self.tick
-        self._all_stepped.clear()
+        self.barrier.open(self.tick)
         for host in self._live_hosts():
             # a host that joined since the last tick may not have sent its registration yet: it gets
-            # inputs from the tick after its registration arrives (_all_in counts a registration as in)
-            if self._held.pop(host, None) is not None:
+            # inputs from the tick after its registration arrives (the barrier counts a registration as in)
+            if self.barrier.release(host):
                 self._send(host, self.sim.inputs(host))
         await self._await_steps()
         for host in sorted(self._live_hosts()):
-            t, msg = self._held.get(host, (None, None))
-            if t == self.tick:
+            msg = self.barrier.step(host)
+            if msg is not None:
                 self.sim.take(host, msg)
         self.sim.transmit()  # once per tick, over every frame of the tick
 
@@ -209,7 +207,7 @@ class WorldSession:
             quiet = time.monotonic() - self.watchdog_s
             for host in self._live_hosts():
                 peer = self.peers[host]
-                if (peer.registered or host in self._held) and peer.last_down < quiet:
+                if (peer.registered or host in self.barrier.held) and peer.last_down < quiet:
                     self._send(host, Ack(self.clock.epoch))
 
     def _publish_event(self, ev: dict) -> None:
@@ -243,7 +241,7 @@ class WorldSession:
         self._check_ready()
 
     def _check_ready(self) -> None:
-        if not self.sim.unclaimed and all(h in self._held for h in self._live_hosts()):
+        if not self.sim.unclaimed and all(h in self.barrier.held for h in self._live_hosts()):
             self._ready.set()
 
     async def _wait_ready(self) -> None:
@@ -257,7 +255,7 @@ class WorldSession:
             left = deadline - time.monotonic()
             if left <= 0:
                 claimed = ", ".join(f"{n} ({len(h.robots)})" for n, h in self.sim.hosts.items()) or "none"
-                waiting = [h for h in self._live_hosts() if h not in self._held]
+                waiting = [h for h in self._live_hosts() if h not in self.barrier.held]
                 raise RuntimeError(
                     f"{len(self.sim.unclaimed)} robot(s) were not claimed by any host within "
                     f"{self.join_timeout_s:.0f} s (robot hosts must join {self.keys.join}); hosts that claimed "
@@ -277,7 +275,8 @@ class WorldSession:
         now = time.monotonic()
         for host in self._live_hosts():
             peer = self.peers[host]
-            if peer.registered or host in self._held or not (every or now - peer.joined_at > self.register_within_s):
+            late = every or now - peer.joined_at > self.register_within_s
+            if peer.registered or host in self.barrier.held or not late:
                 continue
             robots = len(self.sim.hosts[host].robots)
             self.sim.faults.refuse(self.tick, UNREGISTERED, f"host {host} claimed {robots} robot(s) "
@@ -309,7 +308,7 @@ class WorldSession:
             q.reply(self._down(host, Ack(self.clock.epoch)))
             if msg.tick == -1:
                 self.peers[host].registered = True
-                self._held[host] = (-1, None)
+                self.barrier.held[host] = (-1, None)
                 self._check_ready()
                 if self.collecting:  # registered after the stop went out: it gets its own
                     self._send(host, Stop(self.tick))
@@ -335,12 +334,7 @@ class WorldSession:
             peer.registered = True
             self._send(host, Stop(self.tick))
             return None
-        if host in self._held:  # one step per host per tick: a second one is a replay or a forgery
-            problem = f"a second step while one is pending (tick {msg.tick})"
-        elif msg.reports is not None and peer.reported:
-            problem = "a second report"
-        else:
-            problem = self._step_problem(host, msg)  # stale, future or repeated: never held
+        problem = self._step_problem(host, msg)  # stale, future or repeated: never held
         if problem:
             self.sim.record.malformed(None, f"step from {host}: {problem}")
             return problem
@@ -349,29 +343,14 @@ class WorldSession:
             return None
         if msg.tick == -1:
             peer.registered = True
-        self._held[host] = (msg.tick, msg)
+        self.barrier.hold(host, msg, self._barrier_hosts() if self.started else [])
         if not self.started:
             self._check_ready()
-        elif self._all_in():
-            self._all_stepped.set()
         return None
 
     def _step_problem(self, host: str, msg: Uplink) -> str | None:
-        """Why a lockstep step is not the one awaited from this host (None if it is).
-
-        A host registers once (tick -1), then steps exactly the awaited tick; its final report (``reports``)
-        comes after the last tick.
-        """
-        if msg.tick == -1:
-            return "registered already" if self.peers[host].registered else None
-        if msg.reports is not None:
-            if msg.tick > self._awaited_tick or self.collecting:
-                return None
-            return f"report for tick {msg.tick} before the end"
-        if not self.started or msg.tick != self._awaited_tick:
-            what = "stale" if msg.tick < self._awaited_tick else "future"
-            return f"{what} step for tick {msg.tick} (awaited: {self._awaited_tick if self.started else -1})"
-        return None
+        peer = self.peers[host]
+        return self.barrier.problem(host, msg, peer.registered, peer.reported, self.started, self.collecting)
 
     def _on_up_put(self, key: str, payload: bytes) -> None:
         host = self.keys.host_of(key)
@@ -445,19 +424,18 @@ class WorldSession:
 
     def _lose_host(self, host: str, cause: str) -> None:
         self.sim.lose_host(host, cause)
-        self._held.pop(host, None)
+        self.barrier.release(host)
         if self.lockstep:  # a host that is only slow reads this when it wakes, and leaves with one line
             self._send(host, Stop(self.tick, gone=True))
-        if self.started and self._all_in():
-            self._all_stepped.set()
+        if self.started:
+            self.barrier.check(self._barrier_hosts())
         self._check_reports_in()
 
     # ------------------------------------------------------------ control
     def _on_control(self, q: PendingQuery) -> None:
-        """Answer one control command; a bad one is refused, counted, and changes nothing."""
+        """Answer one control command (world/control.py); a bad one is refused, counted, and changes nothing."""
         try:
-            cmd = decode(q.payload, ControlCommand, what="control command")
-            answer = self._control(cmd)
+            answer = control_answer(self, decode(q.payload, ControlCommand, what="control command"))
         except Refused as exc:
             answer = {"ok": False, "error": str(exc)}
         except (MalformedMessage, ValueError, TypeError) as exc:
@@ -465,32 +443,8 @@ class WorldSession:
             answer = {"ok": False, "error": str(exc)}
         q.reply(pack(answer))
 
-    def _control(self, cmd: ControlCommand) -> dict:
-        name = cmd.cmd
-        if name == "status":
-            return {"ok": True, **self.status()}
-        if name == "stop":
-            self.request_stop("stopped by control")
-            return {"ok": True}
-        if name in CLOCK_COMMANDS:
-            clock = self.clock
-            if not isinstance(clock, LockstepClock):
-                raise ValueError(f"{name} needs the lockstep clock (this run is {clock.name})")
-            if name == "pause":
-                clock.pause()
-                return {"ok": True, "tick": self.tick}
-            if name == "resume":
-                clock.resume()
-                return {"ok": True, "tick": self.tick}
-            target = self.tick + 1 if name == "step" else cmd.tick
-            if type(target) is not int or target < 0:
-                raise ValueError(f"run_to: tick {target!r} is not a non-negative integer")
-            clock.run_to(target)
-            return {"ok": True, "until": target}
-        at = self.sim.queue({name: cmd.args})
-        return {"ok": True, "at": at if self.started else 0}
-
     def status(self) -> dict:
+        """The run as the ``status`` control command tells it."""
         return {
             "run_id": self.keys.run_id, "clock": self.clock.name, "tick": self.tick, "ticks": self.ticks,
             "started": self.started, "finished": self.finished,
@@ -505,27 +459,14 @@ class WorldSession:
 
     def _barrier_hosts(self) -> list[str]:
         """The hosts the lockstep barrier waits for: live and registered (a join alone never stalls a tick)."""
-        return [h for h in self._live_hosts() if self.peers[h].registered or h in self._held]
-
-    def _all_in(self) -> bool:
-        """Every host of the barrier has a step pending for the awaited tick (or its registration: tick -1)."""
-        return all(self._stepped(h) for h in self._barrier_hosts())
-
-    def _stepped(self, host: str) -> bool:
-        """The host has the awaited step (or its registration, or its final report) pending."""
-        held = self._held.get(host)
-        return held is not None and (held[0] >= self._awaited_tick or held[0] == -1)
+        return [h for h in self._live_hosts() if self.peers[h].registered or h in self.barrier.held]
 
     async def _await_steps(self) -> None:
         """Wait for every registered live host's step; a host silent past the watchdog loses its robots."""
         limit = host_loss_s(self.watchdog_s)
-        if self._all_in():
-            return
-        try:
-            await asyncio.wait_for(self._all_stepped.wait(), limit)
-        except TimeoutError:
+        if not await self.barrier.wait(self._barrier_hosts(), limit):
             for host in self._barrier_hosts():
-                if not self._stepped(host):  # whatever else it sent
+                if not self.barrier.stepped(host):  # whatever else it sent
                     log.error("host %s did not finish tick %d within %.1f s", host, self.tick, limit)
                     self._lose_host(host, "watchdog")
 
@@ -540,9 +481,9 @@ class WorldSession:
         self._release_unregistered(every=True)  # robots that never ran: none of their hosts will report
         self._check_reports_in()
         if self.lockstep:  # to the hosts waiting for inputs; a step still on its way gets its Stop when it comes
-            self._awaited_tick = self.tick
+            self.barrier.open(self.tick)
             for host in self._live_hosts():
-                if self._held.pop(host, None) is not None:
+                if self.barrier.release(host):
                     self._send(host, stop)
         else:
             for host in self._live_hosts():
