@@ -60,6 +60,9 @@ class FakeLink:
     def watch_liveliness(self, *a, **k):
         pass
 
+    def subscribed(self, key: str) -> bool:
+        return True
+
     def declare_token(self, *a, **k):
         pass
 

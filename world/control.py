@@ -9,11 +9,25 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from transport.messages import CLOCK_COMMANDS, ControlCommand
+from transport import MalformedMessage, PendingQuery, pack
+from transport.messages import CLOCK_COMMANDS, ControlCommand, decode
 from world.clock import LockstepClock
+from world.sim import Refused
 
 if TYPE_CHECKING:
     from world.session import WorldSession
+
+
+def answer_control(session: WorldSession, q: PendingQuery) -> None:
+    """Answer one query on ``control``; a bad command is refused, counted as malformed, and changes nothing."""
+    try:
+        answer = control_answer(session, decode(q.payload, ControlCommand, what="control command"))
+    except Refused as exc:  # counted under its own cause already
+        answer = {"ok": False, "error": str(exc)}
+    except (MalformedMessage, ValueError, TypeError) as exc:
+        session.sim.record.malformed(None, f"control: {exc}")
+        answer = {"ok": False, "error": str(exc)}
+    q.reply(pack(answer))
 
 
 def control_answer(session: WorldSession, cmd: ControlCommand) -> dict:

@@ -11,7 +11,7 @@ import logging
 from collections import defaultdict
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -100,6 +100,12 @@ class Counters:
         return {rid: {"sent": self.sent_by.get(rid, 0), "received": self.received_by.get(rid, 0),
                       "overheard": self.overheard_by.get(rid, 0), "dropped": dict(self.dropped_by.get(rid, {}))}
                 for rid in range(n)}
+
+
+class Sink(Protocol):
+    """Receives one record per tick (the trace writer is one)."""
+
+    def record(self, rec: dict) -> None: ...
 
 
 class TickRecord:

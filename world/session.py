@@ -18,15 +18,12 @@ import asyncio
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Protocol
 
-from transport import Keys, Link, MalformedMessage, PendingQuery, host_loss_s, new_key, pack, seal, unseal
+from transport import Keys, Link, MalformedMessage, PendingQuery, host_loss_s, pack, seal
 from transport.auth import verifies
 from transport.messages import (
     PROTOCOL_VERSION,
     Ack,
-    ControlCommand,
     JoinReply,
     JoinRequest,
     RunInfo,
@@ -38,7 +35,9 @@ from transport.messages import (
 from transport.scenario import Scenario
 from world.barrier import Barrier
 from world.clock import LockstepClock, make_clock
-from world.control import control_answer
+from world.control import answer_control
+from world.counters import Sink
+from world.peers import Peers
 from world.sim import Refused, Simulation
 
 log = logging.getLogger(__name__)
@@ -46,23 +45,6 @@ log = logging.getLogger(__name__)
 INTERRUPT_REPORTS_S = 5.0  # an interrupted run waits at most this long for its hosts' final reports
 REGISTER_MIN_S = 5.0  # a joined host must register within max(watchdog_s, this) of its join
 UNREGISTERED = "unregistered"  # the cause of a host (and its robots) that joined and never registered
-
-
-class Sink(Protocol):
-    """Receives one record per tick (the trace writer is one)."""
-
-    def record(self, rec: dict) -> None: ...
-
-
-@dataclass
-class Peer:
-    """A host as the session knows it: its key and where it is in the protocol."""
-
-    key: bytes
-    joined_at: float  # time.monotonic() of its join: it must register within register_within_s
-    registered: bool = False  # its registration (tick -1) arrived (lockstep: once only)
-    reported: bool = False  # its final reports arrived
-    last_down: float = 0.0  # time.monotonic() of its last downlink (keep_hosts_informed)
 
 
 class WorldSession:
@@ -85,7 +67,7 @@ class WorldSession:
         self.join_timeout_s = float(run.join_timeout_s)
         self.register_within_s = max(self.watchdog_s, REGISTER_MIN_S)
         self.state_every = run.state_every
-        self.peers: dict[str, Peer] = {}
+        self.peers = Peers()  # world/peers.py
         self.started = self.finished = False
         self.collecting = False  # the run is over: the session is collecting the hosts' final reports
         self.interrupted = False  # stopped by a signal: reports are awaited INTERRUPT_REPORTS_S at most
@@ -112,7 +94,7 @@ class WorldSession:
     def open(self) -> None:
         """Declare the world's queryables, subscribers and liveliness watch."""
         self.link.serve(self.keys.join, self._on_join)
-        self.link.serve(self.keys.control, self._on_control)
+        self.link.serve(self.keys.control, lambda q: answer_control(self, q))
         self.link.serve(self.keys.up_all, self._on_step_query)
         self.link.subscribe(self.keys.up_all, self._on_up_put)
         self.link.watch_liveliness(self.keys.alive_all, self._on_liveliness)
@@ -175,40 +157,25 @@ class WorldSession:
         rec = self.sim.end()
         for sink in self.sinks:
             sink.record(rec)
-        if self.state_every and self.tick % self.state_every == 0 and self._state_watched():
+        # a snapshot nobody subscribes to is not built
+        if self.state_every and self.tick % self.state_every == 0 and self.link.subscribed(self.keys.state):
             self.link.publish(self.keys.state, encode(self.sim.state(rec)), reliable=False)
         if self.on_tick:
             self.on_tick(self)
 
-    def _state_watched(self) -> bool:
-        """Whether an observer subscribes to ``state`` (a snapshot nobody reads is not built)."""
-        subscribed = getattr(self.link, "subscribed", None)
-        return subscribed is None or subscribed(self.keys.state)
-
     # ------------------------------------------------------------ downlinks
     def _send(self, host: str, msg) -> None:
-        self.link.publish(self.keys.down(host), self._down(host, msg))
-
-    def _down(self, host: str, msg) -> bytes:
-        """A downlink message for ``host``, sealed with its key (transport.auth)."""
-        peer = self.peers[host]
-        peer.last_down = time.monotonic()
-        return seal(peer.key, encode(msg))
+        self.link.publish(self.keys.down(host), self.peers.seal(host, msg))
 
     async def _keep_hosts_informed(self) -> None:
-        """Every ``watchdog_s``, an ``Ack`` to each registered host that heard nothing for that long.
+        """Every ``watchdog_s``, an ``Ack`` to each registered host that heard nothing for that long (world/peers.py).
 
-        A lockstep world may be paused, waiting for its start or for a slow host; the ack tells its hosts it is
-        there. A host that hears nothing for 2·watchdog_s + 5 s (``host_loss_s``, the rule the world applies to
-        silent hosts) stops: a world that went silent, or a rogue that answered its join and went away.
+        A paused world, or one waiting for its start or a slow host, is not taken for a silent one.
         """
         while True:
             await asyncio.sleep(self.watchdog_s)
-            quiet = time.monotonic() - self.watchdog_s
-            for host in self._live_hosts():
-                peer = self.peers[host]
-                if (peer.registered or host in self.barrier.held) and peer.last_down < quiet:
-                    self._send(host, Ack(self.clock.epoch))
+            for host in self.peers.quiet(self._live_hosts(), self.barrier.held, self.watchdog_s):
+                self._send(host, Ack(self.clock.epoch))
 
     def _publish_event(self, ev: dict) -> None:
         self.link.publish(self.keys.events, pack(ev), reliable=False)
@@ -232,11 +199,11 @@ class WorldSession:
         except Refused as exc:
             q.reply_error(str(exc))
             return
-        self.peers[name] = Peer(new_key(), joined_at=time.monotonic())
+        name, peer = self.peers.join()
         log.info("host %s joined with robots %s", name, [r.id for r in robots])
         sim = self.sim
         run = RunInfo(self.clock.name, sim.dt, sim.seed, self.ticks, self.watchdog_s, self.tick, sim.known_map)
-        reply = encode(JoinReply(name, self.peers[name].key, PROTOCOL_VERSION, robots, run))
+        reply = encode(JoinReply(name, peer.key, PROTOCOL_VERSION, robots, run))
         q.reply(seal(self.run_secret, reply) if self.run_secret else reply)
         self._check_ready()
 
@@ -272,16 +239,11 @@ class WorldSession:
         with the cause ``unregistered`` (the lockstep barrier never waited for them: ``_barrier_hosts``). Counted
         under ``world.refused.unregistered``.
         """
-        now = time.monotonic()
-        for host in self._live_hosts():
-            peer = self.peers[host]
-            late = every or now - peer.joined_at > self.register_within_s
-            if peer.registered or host in self.barrier.held or not late:
-                continue
+        for host, ago in self.peers.late(self._live_hosts(), self.barrier.held, self.register_within_s, every):
             robots = len(self.sim.hosts[host].robots)
-            self.sim.faults.refuse(self.tick, UNREGISTERED, f"host {host} claimed {robots} robot(s) "
-                                                            f"{now - peer.joined_at:.1f} s ago and never registered "
-                                                            f"(a host registers within {self.register_within_s:g} s)")
+            self.sim.faults.refuse(self.tick, UNREGISTERED, f"host {host} claimed {robots} robot(s) {ago:.1f} s "
+                                                            f"ago and never registered (a host registers within "
+                                                            f"{self.register_within_s:g} s)")
             if self.started:
                 self._lose_host(host, UNREGISTERED)
             else:
@@ -297,7 +259,7 @@ class WorldSession:
         """
         host = self.keys.host_of(q.key)
         if host in self.sim.hosts and not self.sim.hosts[host].alive:
-            q.reply(self._down(host, Stop(self.tick, gone=True)))
+            q.reply(self.peers.seal(host, Stop(self.tick, gone=True)))
             return
         msg = self._decode_up(host, q.payload)
         if msg is None:
@@ -305,7 +267,7 @@ class WorldSession:
             return
         if not self.lockstep:
             self._take_realtime([(host, msg)])
-            q.reply(self._down(host, Ack(self.clock.epoch)))
+            q.reply(self.peers.seal(host, Ack(self.clock.epoch)))
             if msg.tick == -1:
                 self.peers[host].registered = True
                 self.barrier.held[host] = (-1, None)
@@ -322,7 +284,7 @@ class WorldSession:
         if problem:
             q.reply_error(problem)
         else:
-            q.reply(self._down(host, Stop(self.tick, bye=True) if msg.reports is not None else Ack(0.0)))
+            q.reply(self.peers.seal(host, Stop(self.tick, bye=True) if msg.reports is not None else Ack(0.0)))
 
     def _step(self, host: str, msg: Uplink) -> str | None:
         """Lockstep: hold a host's registration or step for the barrier, or take its reports; the problem if not.
@@ -397,13 +359,7 @@ class WorldSession:
     def _decode_up(self, host: str, payload: bytes) -> Uplink | None:
         """Verify (per-host key) and decode an uplink; count and return None when it is bad."""
         try:
-            peer = self.peers.get(host)
-            if peer is None:
-                raise MalformedMessage(f"uplink on up/{host}: no such host joined")
-            msg = decode(unseal(peer.key, payload, what=f"uplink on up/{host}"), Uplink, what=f"uplink from {host}")
-            if msg.host != host:
-                raise MalformedMessage(f"uplink on up/{host} claims host {msg.host!r}")
-            return msg
+            return self.peers.open(host, payload)
         except MalformedMessage as exc:
             self.sim.record.malformed(None, str(exc))
             return None
@@ -431,18 +387,7 @@ class WorldSession:
             self.barrier.check(self._barrier_hosts())
         self._check_reports_in()
 
-    # ------------------------------------------------------------ control
-    def _on_control(self, q: PendingQuery) -> None:
-        """Answer one control command (world/control.py); a bad one is refused, counted, and changes nothing."""
-        try:
-            answer = control_answer(self, decode(q.payload, ControlCommand, what="control command"))
-        except Refused as exc:
-            answer = {"ok": False, "error": str(exc)}
-        except (MalformedMessage, ValueError, TypeError) as exc:
-            self.sim.record.malformed(None, f"control: {exc}")
-            answer = {"ok": False, "error": str(exc)}
-        q.reply(pack(answer))
-
+    # ------------------------------------------------------------ control (world/control.py)
     def status(self) -> dict:
         """The run as the ``status`` control command tells it."""
         return {
