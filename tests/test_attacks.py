@@ -752,6 +752,34 @@ def test_a_host_whose_world_goes_silent_stops_within_the_host_loss_bound(monkeyp
     assert host_loss_s(watchdog_s) <= took < host_loss_s(watchdog_s) + 5
 
 
+@pytest.mark.slow
+def test_a_host_facing_only_rogue_join_replies_gives_up_within_its_wait_and_names_the_run(caplog):
+    """With the run secret, a host drops every rogue join reply, logs a few of them naming the run, and gives up."""
+    keys = Keys(new_run_id("rogue"))
+
+    async def join() -> tuple[BaseException | None, float]:
+        with Link(Endpoints(mode="peer", listen=["tcp/127.0.0.1:0"])) as link:
+            rogue = zenoh.open(make_config(Endpoints(mode="peer", connect=[link.locators()[0]])))
+            try:
+                rogue.declare_queryable(keys.join, lambda q: q.reply(q.key_expr, b"rogue"))
+                host = RobotHost(link, keys, run_secret=bytes(range(32)))
+                t0 = time.monotonic()
+                try:
+                    await host.join(timeout=3.0)
+                except RuntimeError as exc:
+                    return exc, time.monotonic() - t0
+                return None, time.monotonic() - t0
+            finally:
+                rogue.close()
+
+    with caplog.at_level("WARNING", logger="swarmactors"):
+        error, took = asyncio.run(join())
+    assert error is not None and "none authentic" in str(error) and took < 3.0 + 6.0
+    dropped = [r.getMessage() for r in caplog.records if "fails authentication" in r.getMessage()]
+    assert dropped and all(f"joining run {keys.run_id!r}" in m for m in dropped), dropped
+    assert len(dropped) <= 8  # the 1st, 2nd, 4th, ... of them, not one line per reply
+
+
 def _long_pause(wr, z, status):
     time.sleep(host_loss_s(FLOOD_RAW["run"]["watchdog_s"]) + 2)  # the world stays paused all along
 
