@@ -20,7 +20,7 @@ from msgspec import inspect as mi
 
 from transport import scenario as model
 
-DOC = Path(__file__).resolve().parent.parent / "docs" / "scenarios.md"
+DOC = Path("docs") / "scenarios.md"  # in a checkout of the project (the docs are not installed)
 TABLES: dict[str, Any] = {"run": model.Run, "radio": model.Radio, "world": model.World, "robots": model.RobotGroup,
                           "events": model.Event}
 _BLOCK = re.compile(r"(<!-- keys: (\w+) -->\n)(.*?)(<!-- end keys -->)", re.DOTALL)
@@ -135,7 +135,12 @@ def main(argv: list[str] | None = None) -> int:
     if not args.markdown:
         print(json_schema())
         return 0
-    text = args.doc.read_text(encoding="utf-8")
+    try:
+        text = args.doc.read_text(encoding="utf-8")
+    except OSError as e:
+        print(f"{args.doc}: cannot read the scenario reference ({e.strerror}); run from a checkout of the project "
+              "or name it with --doc", file=sys.stderr)
+        return 2
     new = update(text)
     if args.check:
         if new != text:

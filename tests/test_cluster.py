@@ -359,7 +359,8 @@ def test_a_sweep_of_a_trial_function_gives_the_same_rows_locally_and_on_the_clus
     address, client = cluster
     spec = _callable_spec(tmp_path)
     monkeypatch.chdir(tmp_path)
-    assert main(["sweep", str(spec), "--workers", "2", "--out", "local", "--quiet"]) == 0
+    # one trial raises: its row keeps the error and the sweep exits 1 (a trial could not run), locally and on Dask
+    assert main(["sweep", str(spec), "--workers", "2", "--out", "local", "--quiet"]) == 1
     rows = _rows(tmp_path / "local" / "trials.csv")
     assert [(r["n"], r["trial"]) for r in rows] == [(n, t) for n in "123" for t in "01"]
     assert list(rows[0])[:5] == ["n", "trial", "seed", "error", "metric.mean"]
@@ -369,7 +370,7 @@ def test_a_sweep_of_a_trial_function_gives_the_same_rows_locally_and_on_the_clus
     assert all(0 < float(r["metric.mean"]) < 1 and r["metric.stats.trial"] == r["trial"] for r in good)
     assert len({r["seed"] for r in rows}) == 2  # trial i of every point has the same seed
     client.upload_file(str(tmp_path / "draws_trial.py"))
-    assert main(["sweep", str(spec), "--cluster", address, "--out", "dask", "--quiet"]) == 0
+    assert main(["sweep", str(spec), "--cluster", address, "--out", "dask", "--quiet"]) == 1
     assert (tmp_path / "dask" / "trials.csv").read_bytes() == (tmp_path / "local" / "trials.csv").read_bytes()
 
 

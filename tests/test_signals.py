@@ -19,8 +19,8 @@ import pytest
 
 from swarmactors.launcher import new_run_id, run_world
 from swarmactors.scenario import resolve_scenario
-from transport import Endpoints, seal
-from transport.messages import Stop, encode
+from transport import Endpoints
+from transport.messages import Stop
 
 pytestmark = pytest.mark.slow  # every test runs a world over Zenoh
 
@@ -206,8 +206,8 @@ def test_a_host_that_goes_quiet_after_a_stop_is_lost(tmp_path):
 
     def on_tick(world):
         if world.tick == 10 and not sent:
-            host = next(iter(world.hosts))
-            world.link.publish(world.keys.down(host), seal(world.hosts[host].key, encode(Stop(world.tick))))
+            host = next(iter(world.peers))
+            world.link.publish(world.keys.down(host), world.peers.seal(host, Stop(world.tick)))
             sent["tick"] = world.tick
 
     async def main():
