@@ -25,7 +25,8 @@ from scipy.spatial import cKDTree
 from swarmactors.export import Headings, initial_headings
 from swarmactors.result import to_jsonable
 from swarmactors.scene import Scene
-from transport.messages import DROP_CAUSES, malformed_count
+from transport.messages import malformed_count
+from world.linkrules import DROP_CAUSES
 
 FOXGLOVE_MISSING = ("this needs the foxglove-sdk and mcap packages, which are not installed: "
                     "pip install 'swarmactors[foxglove]'")

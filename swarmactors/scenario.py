@@ -143,6 +143,7 @@ def resolve(raw: dict, source: str = "<scenario>", overrides: list[str] = ()) ->
     with _naming(source):
         sc = decode(raw, Scenario)
         sc.check()
+        _radio_rules(sc)
         _resolve_space(sc.world, source)
         rng = np.random.default_rng([sc.run.seed, 0x5CE7])
         for i, g in enumerate(sc.robots):
@@ -156,6 +157,14 @@ def resolve(raw: dict, source: str = "<scenario>", overrides: list[str] = ()) ->
         _check(c, f"checks[{i}]", source)
     sc.source = source
     return sc
+
+
+def _radio_rules(sc: Scenario) -> None:
+    """Each ``[[radio.rules]]`` table names a registered rule and gives it valid keys (world/linkrules.py)."""
+    if sc.radio.rules:
+        from world.linkrules import check_rules  # the world's registry; only scenarios that add rules load it
+
+        check_rules(sc.radio, SpecError)
 
 
 def apply_override(raw: dict, item: str, source: str = "--set") -> None:

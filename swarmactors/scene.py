@@ -24,7 +24,8 @@ import tomli_w
 
 from swarmactors.result import to_jsonable
 from transport import unpack
-from transport.messages import DROP_CAUSES, malformed_count
+from transport.messages import malformed_count
+from world.linkrules import DROP_CAUSES
 
 ACTIVITY_TICKS = 3  # a robot "is talking" when it sent frames in the last ACTIVITY_TICKS ticks
 RECENT_TICKS = 50  # per-robot frame history kept for the detail panel

@@ -57,7 +57,7 @@ from pathlib import Path
 
 from swarmactors.launcher import fixed_hash_seed
 from swarmactors.result import to_jsonable
-from transport.messages import DROP_CAUSES
+from world.linkrules import DROP_CAUSES
 
 COLUMNS_AFTER_GRID = ["trial", "seed", "ticks", "trace_hash", "stop_reason", "robots", "alive", "crashed",
                       "frames_sent",

@@ -32,9 +32,6 @@ from transport.scenario import (  # noqa: F401 - re-exported: the world's action
 
 PROTOCOL_VERSION = 3  # 3: lockstep steps are puts on up/{host}, inputs puts on down/{host} (issue 28)
 
-# Why the world did not deliver a frame to a robot (or refused a message): the counters, result.json,
-# the trace, the sweep CSV and the viewer all use these names.
-DROP_CAUSES = ("range", "loss", "cut", "occluded", "bandwidth", "dead", "malformed")
 # The last ``mal`` entry of a trace record whose tick had more malformed messages than were stored, then a count.
 MORE_MALFORMED = "and more malformed messages, not stored:"
 

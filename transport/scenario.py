@@ -32,6 +32,7 @@ INT64 = 1 << 63
 FLOAT_MAX = sys.float_info.max  # a number within +-FLOAT_MAX is finite: the bound every number key has at least
 MAX_COORD = 1e9  # length units: the largest |coordinate| (and length: range, sensing, body radius) a robot may have
 MAX_SPEED = 1e6  # length units per second: the largest speed cap, and the largest velocity command the world takes
+MAX_RADIO_RULES = 32  # [[radio.rules]] tables a scenario may add
 MAX_DRIFT_PPM = 1e5  # the largest |clock_drift| (10 %)
 MAX_CLOCK_OFFSET_S = 1e6  # the largest |clock_offset|, seconds (11.6 days)
 MAX_OBSTACLE_RAYS = 1024  # range rays per robot (ctx.rays): a lidar's beams, not more
@@ -188,6 +189,12 @@ class Radio(_Spec):
                  "loss) and one that arrives is recorded as overheard (trace `ovh`, `world.overheard`) but not handed "
                  "to the robot; `filter`: the excluded robots are no receivers at all (the older rule: neither "
                  "delivered, overheard nor dropped)") = "overheard"
+    rules: key(Annotated[list[dict[str, Any]], Meta(max_length=MAX_RADIO_RULES)],
+               "more rules of the radio, each a table: `use` = the name of a rule registered in the entry-point "
+               "group `swarmactors.radio_rules`, `before` = the built-in rule (`dead`, `range`, `occlusion`, "
+               "`bandwidth`, `cut`, `loss`) it runs before (default: after them all), and the rule's own keys "
+               "([Radio rules](radio-rules.md))", default="none", shape="array of tables") = msgspec.field(
+        default_factory=list)
 
     def check(self) -> None:
         """Check the rules between radio keys; fill the Gilbert-Elliott defaults.

@@ -15,8 +15,9 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from transport.messages import DROP_CAUSES, MORE_MALFORMED
+from transport.messages import MORE_MALFORMED
 from transport.rows import IntRows
+from world.linkrules import DROP_CAUSES, cause_name
 
 log = logging.getLogger("world")
 
@@ -75,15 +76,15 @@ class Counters:
     refused: dict[str, int] = field(default_factory=lambda: defaultdict(int))  # refused requests by named cause
 
     def drop(self, src: int | None, cause: str, n: int = 1) -> None:
-        self.dropped[cause] += n
+        self.dropped[cause] = self.dropped.get(cause, 0) + n  # a scenario's own radio rules add causes
         if src is not None and src >= 0:
             self.dropped_by[src][cause] += n
 
     def drops(self, src: np.ndarray, cause: np.ndarray) -> None:
-        """Count drops given as arrays: sender ids and indices into ``DROP_CAUSES``."""
+        """Count drops given as arrays: sender ids and cause numbers (``world.linkrules.cause_name``)."""
         keys, counts = np.unique(np.column_stack([src, cause]), axis=0, return_counts=True)
         for (s, c), k in zip(keys.tolist(), counts.tolist(), strict=True):
-            self.drop(s, DROP_CAUSES[c], k)
+            self.drop(s, cause_name(c), k)
 
     def as_dict(self) -> dict:
         return {
@@ -179,11 +180,11 @@ class TickRecord:
             rec_drops.append([src, seq, dst, cause])
 
     def dropped_arrays(self, src: np.ndarray, seq: np.ndarray, dst: np.ndarray, cause: np.ndarray) -> None:
-        """Drops as arrays (``cause``: indices into ``DROP_CAUSES``), the way ``dropped`` records them."""
+        """Drops as arrays (``cause``: cause numbers), the way ``dropped`` records them."""
         if not len(src):
             return
         self.counters.drops(src, cause)
-        names = [DROP_CAUSES[c] for c in cause.tolist()]
+        names = [cause_name(c) for c in cause.tolist()]
         rows = np.column_stack([src, seq, dst]).tolist()
         for row, name in zip(rows, names, strict=True):
             row.append(name)

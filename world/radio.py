@@ -1,44 +1,24 @@
-"""The radio medium: who hears a frame, when, and whether.
+"""The radio medium: who hears a frame, when, and whether (DESIGN.md, "Radio medium").
 
-Rules (DESIGN.md, "Radio medium"), applied once per frame from the positions
-at the send tick:
+Decided once per frame from the positions at the send tick, for all (frame, receiver) pairs of a decision at
+once (a lockstep tick's every frame; a realtime delivery window's), with numpy:
 
-* range - a disk of the *transmitter's* radius, so heterogeneous ranges give
-  directed links; a broadcast reaches every alive robot in range except the
-  sender, an addressed frame only its destination and only if in range (else
-  dropped as ``range``); both by the rule of world/sensing.py (squared
-  distance <= range * range);
-* exclusion - a broadcast's ``exclude`` list names robots that discard it: as a
-  real radio, the world still carries their copies through every rule below
-  and records a copy that arrives as *overheard* (trace ``ovh``, counted, never
-  handed to the behaviour); ``radio.exclude = "filter"`` is the older rule
-  where excluded robots are no candidates at all (neither heard nor dropped);
-  addressed frames are point-to-point either way (the MAC filters them);
-* cuts and partitions - a frame over a cut link or between partition groups is
-  dropped as ``cut``;
-* occlusion - with ``radio.occlusion``, a frame to a receiver in range that an
-  obstacle hides from the sender (world/space.py) is dropped as ``occluded``;
-* bandwidth - an optional cap of bytes per robot per tick; every frame sent
-  counts, heard or not; frames past it, in sending order, are dropped as
-  ``bandwidth`` for every receiver;
-* loss - per (frame, receiver), from the counter-based generator:
-  ``bernoulli`` loses with probability ``loss``; ``distance`` is Swarm Relays
-  Sec. III-A: the receiver decodes with e = 1 when d < delta, exp(-delta*d/Z)
-  otherwise (Z the transmitter's range), then ``loss`` applies on top;
-  ``loss_model = "gilbert"`` (world/bursts.py) replaces ``loss`` by the
-  Gilbert-Elliott state of the (src, dst) pair, multiplied with the
-  distance model's probability where both are on;
-* latency - lockstep: exactly ``latency`` ticks; realtime: drawn uniformly in
-  [latency_min_s, latency_s] seconds per (frame, receiver).
+* candidates - a broadcast's are its sender's reach (a disk of the *transmitter's* radius, the rule of
+  world/sensing.py: squared distance <= range * range, so heterogeneous ranges give directed links), except
+  the sender; an addressed frame's is its destination only. A broadcast's ``exclude`` list names robots that
+  discard it: as a real radio, the world still carries their copies through every rule and records a copy
+  that arrives as *overheard* (trace ``ovh``, never handed to the behaviour); ``radio.exclude = "filter"`` is
+  the older rule where excluded robots are no candidates at all;
+* rules - world/linkrules.py: each drops pairs under its cause, in order: ``dead`` and ``range`` (addressed
+  frames), ``occlusion``, ``bandwidth``, ``cut`` (cuts and partitions), ``loss`` (Bernoulli, the distance
+  model of Swarm Relays Sec. III-A, Gilbert-Elliott bursts), then any a scenario adds (``[[radio.rules]]``);
+* latency - lockstep: exactly ``latency`` ticks; realtime: drawn uniformly in [latency_min_s, latency_s]
+  seconds per (frame, receiver).
 
-A frame still in the air when its receiver dies is dropped as ``dead`` at
-delivery time (by the world, not here).
-
-``Medium.decide_batch`` applies these rules to all (frame, receiver) pairs of a batch at once, with numpy:
-the frames' headers become arrays, the candidate receivers come from the tick's ``Reach`` table
-(world/sensing.py), and every rule is a mask over the pairs. The random draws are the counter-based ones
-(world/rng.py) keyed on the same fields, so the outcome is the same as deciding frame by frame, in any
-order. Frame bodies are never decoded: only their lengths count.
+A frame still in the air when its receiver dies is dropped as ``dead`` at delivery time (by the simulation,
+not here). The random draws are counter-based (world/rng.py) keyed on (seed, tick, src, seq, dst), so the
+outcome is the same as deciding frame by frame, in any order. Frame bodies are never decoded: only their
+lengths count.
 """
 
 from __future__ import annotations
@@ -48,14 +28,11 @@ from dataclasses import dataclass
 import msgspec
 import numpy as np
 
-from transport.messages import DROP_CAUSES
 from transport.scenario import Radio
 from transport.severance import Severance
 from world import rng
-from world.bursts import GilbertElliott
+from world.linkrules import LinkRule, Transmissions, cause_id, cause_name, pipeline
 from world.sensing import Reach
-
-CAUSE = {name: k for k, name in enumerate(DROP_CAUSES)}  # drop causes as small integers in ``Decision.cause``
 
 
 class Outgoing(msgspec.Struct):
@@ -74,9 +51,9 @@ class Outgoing(msgspec.Struct):
 class Decision:
     """The outcome of a batch: for pair k, frame ``frames[frame[k]]`` and receiver ``dst[k]``.
 
-    ``cause[k]`` is -1 for a copy that arrives, else an index into ``DROP_CAUSES``; ``overheard[k]`` marks a
-    copy to a robot on the frame's ``exclude`` list (one that arrives is overheard, not delivered); ``src`` and
-    ``seq`` are the frames' headers (one entry per frame of the batch).
+    ``cause[k]`` is -1 for a copy that arrives, else a cause's number (``world.linkrules.cause_name``);
+    ``overheard[k]`` marks a copy to a robot on the frame's ``exclude`` list (one that arrives is overheard, not
+    delivered); ``src`` and ``seq`` are the frames' headers (one entry per frame of the batch).
     """
 
     frame: np.ndarray
@@ -120,11 +97,21 @@ class Medium:
     def __init__(self, config: Radio, seed: int):
         self.config = config  # the scenario's [radio] (transport.scenario.Radio); set_loss replaces it
         self.seed = seed
-        self.links = Severance()  # cuts and partitions (transport/severance.py)
-        self._budget = np.zeros(0, dtype=np.int64)  # bytes sent this tick, per robot (bandwidth cap)
-        self._budget_tick = -1
-        self.bursts = (GilbertElliott(seed, config.p_gb, config.p_bg, config.loss_good, config.loss_bad)
-                       if config.loss_model == "gilbert" else None)
+        self.rules = pipeline(config, seed, Severance())  # world/linkrules.py, in order
+        self._cut = self.rule("cut")  # world.linkrules.Cut
+
+    def rule(self, name: str) -> LinkRule:
+        """The rule called ``name`` in the pipeline (the first, if a scenario added two of one kind)."""
+        return next(r for r in self.rules if r.name == name)
+
+    @property
+    def links(self) -> Severance:
+        """Cuts and partitions (transport/severance.py): the ``cut`` rule's."""
+        return self._cut.links
+
+    @links.setter
+    def links(self, links: Severance) -> None:
+        self._cut.links = links
 
     @property
     def cuts(self) -> set[tuple[int, int]]:
@@ -186,7 +173,7 @@ class Medium:
                               strict=True):
             f = frames[k]
             if c >= 0:
-                drops.append((f.src, f.seq, d, f.kind, DROP_CAUSES[c]))
+                drops.append((f.src, f.seq, d, f.kind, cause_name(c)))
             else:
                 (overheard if o else deliveries).append((d, f.src, f.seq, f, tick))
         return deliveries, drops, overheard
@@ -204,125 +191,53 @@ class Medium:
         """Receivers and drops of ``frames``, sent at ``tick``, for all (frame, receiver) pairs at once.
 
         ``table`` holds each alive robot's reach at ``tick`` (world/sensing.py); ``hidden``, aligned with
-        ``table.nbrs``, marks the links an obstacle blocks (None: none). In order: a broadcast's candidates
-        are its sender's reach (its ``exclude`` list's copies marked ``overheard``, or left out with
-        ``exclude = "filter"``), the hidden ones dropped as ``occluded``; an
-        addressed frame's only candidate is its destination, dropped as ``dead`` (no such robot, or dead),
-        ``range`` (not in the sender's reach: the broadcast's rule) or ``occluded``; every frame is charged
-        to its sender's bandwidth budget for the tick, in sending order, and the candidates of a frame past
-        the cap are dropped as ``bandwidth``; then severed links (``cut``), then loss.
+        ``table.nbrs``, marks the links an obstacle blocks (None: none). The candidates: a broadcast's are its
+        sender's reach (its ``exclude`` list's copies marked ``overheard``, or left out with
+        ``exclude = "filter"``), an addressed frame's is its destination; then the rules (world/linkrules.py)
+        drop pairs in order, and a rule's drops are recorded in the order of its pairs (broadcasts first).
         """
-        cfg = self.config
-        n = len(alive)
-        nf = len(frames)
-        if tick != self._budget_tick:  # the cap is per tick, however many uplinks carry the tick's frames
-            self._budget_tick = tick
-            self._budget = np.zeros(n, dtype=np.int64)
-        src = np.fromiter((f.src for f in frames), np.int64, nf)
-        seq = np.fromiter((f.seq for f in frames), np.int64, nf)
-        bcast = np.fromiter((f.dst is None for f in frames), bool, nf)
-        out_f: list[np.ndarray] = []  # early drops: (frame, dst, cause, overheard)
-        out_d: list[np.ndarray] = []
-        out_c: list[np.ndarray] = []
-        out_o: list[np.ndarray] = []
+        tx = Transmissions(tick, self.seed, self.config, frames, table, alive, positions, ranges, hidden)
+        self._candidates(tx)
+        out_f, out_d, out_c, out_o = [], [], [], []
+        for rule in self.rules:
+            lost = rule.apply(tx)
+            if lost is None or not lost.any():
+                continue
+            out_f.append(tx.frame[lost])
+            out_d.append(tx.dst[lost])
+            out_c.append(np.full(len(out_f[-1]), cause_id(rule.cause), dtype=np.int64))
+            out_o.append(tx.overheard[lost])
+            tx.keep(~lost)
+        out_f.append(tx.frame)
+        out_d.append(tx.dst)
+        out_c.append(np.full(len(tx), -1, dtype=np.int64))
+        out_o.append(tx.overheard)
+        return Decision(np.concatenate(out_f), np.concatenate(out_d), np.concatenate(out_c), tx.src, tx.seq,
+                        np.concatenate(out_o))
 
-        def drop(mask, cause):
-            out_f.append(pf[mask])
-            out_d.append(pd[mask])
-            out_c.append(np.full(len(out_f[-1]), CAUSE[cause], dtype=np.int64))
-            out_o.append(po[mask])
-
-        # broadcasts: the sender's reach; copies to the exclude list are overheard (or, "filter", not sent)
+    def _candidates(self, tx: Transmissions) -> None:
+        """Every (frame, receiver) pair under decision: the broadcasts' reach, then the addressed frames."""
+        n = len(tx.alive)
+        frames = tx.frames
+        bcast = ~tx.addressed
         b_ids = np.flatnonzero(bcast)
-        pf, idx = _pairs(table.indptr, src[b_ids], b_ids) if b_ids.size else (np.zeros(0, np.int64),) * 2
-        pd = table.nbrs[idx]
+        pf, idx = _pairs(tx.table.indptr, tx.src[b_ids], b_ids) if b_ids.size else (np.zeros(0, np.int64),) * 2
+        pd = tx.table.nbrs[idx]
         po = np.zeros(len(pf), dtype=bool)
         ex = [(k, x) for k in b_ids.tolist() for x in frames[k].exclude]
         if ex and pf.size:
             ef, ed = np.array(ex, dtype=np.int64).T
             po = np.isin(pf * (n + 1) + pd, ef * (n + 1) + np.where((ed >= 0) & (ed < n), ed, n))
-            if cfg.exclude == "filter":
+            if self.config.exclude == "filter":
                 pf, pd, idx, po = pf[~po], pd[~po], idx[~po], po[~po]
-        if hidden is not None and pf.size:
-            h = hidden[idx]
-            drop(h, "occluded")
-            pf, pd, po = pf[~h], pd[~h], po[~h]
-        # addressed frames: one candidate each, in range when it is in the sender's reach (the same rule)
         u_ids = np.flatnonzero(~bcast)
-        if u_ids.size:
-            b_f, b_d, b_o = pf, pd, po
-            pf = u_ids
-            pd = np.fromiter((frames[k].dst for k in u_ids.tolist()), np.int64, len(u_ids))
-            po = np.zeros(len(pf), dtype=bool)
-            dead = (pd < 0) | (pd >= n)
-            dead[~dead] = ~alive[pd[~dead]]
-            drop(dead, "dead")
-            pf, pd, po = pf[~dead], pd[~dead], po[~dead]
-            where = table.find(src[pf], pd)
-            far = where < 0
-            drop(far, "range")
-            pf, pd, po, where = pf[~far], pd[~far], po[~far], where[~far]
-            if hidden is not None:
-                h = hidden[where]
-                drop(h, "occluded")
-                pf, pd, po = pf[~h], pd[~h], po[~h]
-            pf = np.concatenate([b_f, pf])
-            pd = np.concatenate([b_d, pd])
-            po = np.concatenate([b_o, po])
-        # bandwidth: every frame sent charges its sender, in sending order
-        if cfg.bandwidth and nf:
-            everyone = np.arange(nf, dtype=np.int64)
-            over = self._charge(src, frames, everyone)
-            if over.size and pf.size:
-                lost = np.isin(pf, over)
-                drop(lost, "bandwidth")
-                pf, pd, po = pf[~lost], pd[~lost], po[~lost]
-        ps = src[pf]
-        if self.links and pf.size:
-            sev = self.links.mask(ps, pd)
-            drop(sev, "cut")
-            pf, pd, ps, po = pf[~sev], pd[~sev], ps[~sev], po[~sev]
-        p_ok = self._success_probability(tick, ps, pd, positions, ranges) if pf.size else None
-        if p_ok is not None:
-            lost = rng.uniform(self.seed, rng.LOSS, tick, ps, seq[pf], pd) >= p_ok  # p_ok = 0 or 1: certain
-            drop(lost, "loss")
-            pf, pd, po = pf[~lost], pd[~lost], po[~lost]
-        out_f.append(pf)
-        out_d.append(pd)
-        out_c.append(np.full(len(pf), -1, dtype=np.int64))
-        out_o.append(po)
-        return Decision(np.concatenate(out_f), np.concatenate(out_d), np.concatenate(out_c), src, seq,
-                        np.concatenate(out_o))
-
-    def _charge(self, senders: np.ndarray, frames: list[Outgoing], which: np.ndarray) -> np.ndarray:
-        """Add the bodies of frames ``which`` (sent by ``senders``, in order) to the budget; those past the cap."""
-        top = int(senders.max()) + 1
-        if top > len(self._budget):
-            self._budget = np.concatenate([self._budget, np.zeros(top - len(self._budget), dtype=np.int64)])
-        size = np.fromiter((len(frames[k].body) for k in which.tolist()), np.int64, len(which))
-        order = np.argsort(senders, kind="stable")
-        s, z = senders[order], size[order]
-        total = np.cumsum(z)
-        first = np.flatnonzero(np.r_[True, s[1:] != s[:-1]])
-        before = np.repeat(total[first] - z[first], np.diff(np.r_[first, len(s)]))
-        used = self._budget[s] + total - before
-        last = np.r_[first[1:], len(s)] - 1
-        self._budget[s[last]] = used[last]
-        return np.sort(order[used > self.config.bandwidth])
-
-    def _success_probability(self, tick, src, receivers, positions, ranges):
-        """Per-pair decoding probability, or None when every frame gets through."""
-        cfg = self.config
-        keep = (1.0 - cfg.loss) if self.bursts is None else self.bursts.success_pairs(tick, src, receivers)
-        if cfg.model == "distance":
-            d = np.linalg.norm(positions[receivers] - positions[src], axis=1)
-            e = np.where(d < cfg.delta, 1.0, np.exp(-cfg.delta * d / ranges[src]))
-            return e * keep
-        if self.bursts is not None:
-            return keep
-        if cfg.loss > 0.0:
-            return np.full(len(receivers), 1.0 - cfg.loss)
-        return None
+        if u_ids.size:  # in range when the destination is in the sender's reach (the broadcast's rule)
+            ud = np.fromiter((frames[k].dst for k in u_ids.tolist()), np.int64, len(u_ids))
+            pf = np.concatenate([pf, u_ids])
+            pd = np.concatenate([pd, ud])
+            idx = np.concatenate([idx, tx.table.find(tx.src[u_ids], ud)])
+            po = np.concatenate([po, np.zeros(len(u_ids), dtype=bool)])
+        tx.set_pairs(pf, pd, idx, po)
 
     def latencies_s(self, tick: int, src: int, seq: int, receivers: np.ndarray) -> np.ndarray:
         """Realtime latency per receiver, uniform in [latency_min_s, latency_s]."""

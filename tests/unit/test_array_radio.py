@@ -33,11 +33,11 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from transport.messages import DROP_CAUSES
 from transport.rows import IntRows, packb
 from transport.scenario import Radio
 from transport.severance import Severance
 from world import rng
+from world.linkrules import DROP_CAUSES
 from world.radio import Medium, Outgoing
 from world.sensing import reach
 

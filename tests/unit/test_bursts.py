@@ -127,6 +127,6 @@ def test_bursts_replace_bernoulli_loss_and_multiply_with_the_distance_model():
 
 def test_bernoulli_is_unchanged_by_default():
     radio = Radio.from_dict({"range": 10.0, "loss": 0.3})
-    assert Medium(radio, seed=1).bursts is None
+    assert Medium(radio, seed=1).rule("loss").bursts is None
     with pytest.raises(ValueError, match="gilbert"):
         Medium(Radio.from_dict({"loss_model": "gilbert", "p_gb": 0.1, "p_bg": 0.1}), 1).set_loss(0.2)

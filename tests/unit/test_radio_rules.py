@@ -43,8 +43,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy import stats
 
-from transport.messages import DROP_CAUSES
 from transport.scenario import Radio
+from world.linkrules import DROP_CAUSES
 from world.radio import Medium, Outgoing
 from world.sensing import within
 

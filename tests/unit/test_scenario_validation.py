@@ -75,6 +75,7 @@ RADIO = {
     "loss_model": (STRING, "bernoulli"), "p_gb": (NUMBER, None), "p_bg": (NUMBER, None),
     "loss_good": (NUMBER, None), "loss_bad": (NUMBER, None), "rab": (BOOLEAN, False),
     "exclude": (STRING, "overheard"),  # issue 23: excluded robots overhear broadcasts
+    "rules": ("list", []),  # more radio rules (world/linkrules.py)
 }
 WORLD = {"dims": (INTEGER, 2), "bounds": ("list", None), "objects": ("list", []), "max_robots": (INTEGER, 10_000),
          "obstacles": ("list", []), "map": ("table", None), "blocking": (BOOLEAN, False)}
