@@ -166,8 +166,8 @@ def build_parser() -> argparse.ArgumentParser:
     certs.add_argument("directory", type=Path, help="where ca.pem, cluster.pem and cluster.key go (kept if there)")
     certs.add_argument("--name", action="append", default=[], help="another name the certificate is valid for")
     schedule_cli.add_parser(sub)
-    export_cli.add_parser(sub)  # swarmactors export RUN (issue 26)
-    newproject.add_parser(sub)  # swarmactors new NAME (issue 26)
+    export_cli.add_parser(sub)  # swarmactors export RUN
+    newproject.add_parser(sub)  # swarmactors new NAME
     schema = sub.add_parser("schema", help="print the JSON Schema of a scenario file, for editors that complete and "
                                            "check TOML (docs/scenarios.md)")
     schema.add_argument("--out", type=Path, help="write it to this file instead of standard output")

@@ -30,7 +30,7 @@ from transport.scenario import (  # noqa: F401 - re-exported: the world's action
     action_problem,
 )
 
-PROTOCOL_VERSION = 3  # 3: lockstep steps are puts on up/{host}, inputs puts on down/{host} (issue 28)
+PROTOCOL_VERSION = 3  # 3: lockstep steps are puts on up/{host}, inputs puts on down/{host}
 
 # The last ``mal`` entry of a trace record whose tick had more malformed messages than were stored, then a count.
 MORE_MALFORMED = "and more malformed messages, not stored:"

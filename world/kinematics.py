@@ -9,7 +9,7 @@ away from where it was told to go (Kobayashi et al. cap 0.03 units and 0.15 rad
 per timestep); in 3-D the unicycle turns and advances in the plane and keeps the step's vertical part. A robot
 that moves is kept inside the world's bounds (one that does not move is left where it is).
 
-Limits (issue 27): a velocity command must be finite and at most ``MAX_SPEED`` length units per second
+Limits: a velocity command must be finite and at most ``MAX_SPEED`` length units per second
 (whether or not its group has a cap; above the group's ``speed`` it is clipped to it); a position must stay
 finite and within ``MAX_COORD`` of the origin. The world crashes a robot that breaks either rule
 (``invalid_velocity``, ``invalid_position``) and the run goes on.

@@ -9,7 +9,7 @@ Messages and lists
 
 A message is ``(T, S)``: a type T and the ordered list S of robot stamps; a robot
 stamps by appending its id. Every CR/DCR frame also carries a *period* number p
-(a documented extension, issue 3): body ``[p, S]``.
+(a documented extension): body ``[p, S]``.
 
 * **R1 - relay (Algorithm 1).** On ``("CR", S)`` with own id not in S, a robot
   broadcasts ``("CR", S + [id])``; a message that already carries its id is

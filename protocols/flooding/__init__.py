@@ -13,7 +13,7 @@ being the send time plus the expiration period. Rules, per robot:
   a robot forwards again when a copy arrives with strictly more hops left
   than any before, so that asynchrony cannot hide a robot behind a long path.
 
-* F1r - with ``lifetime = "remaining"`` (issue 23) a copy carries the lifetime
+* F1r - with ``lifetime = "remaining"`` a copy carries the lifetime
   it has left instead of the deadline; each hop consumes ``hop_cost`` (the
   paper's "single timestep per hop", default one tick) and a copy with a
   negative remainder has expired. No clock is compared across robots.

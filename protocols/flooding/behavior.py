@@ -13,7 +13,7 @@ class Flooding(Behavior):
     """Forward-once flooding with an expiration period and an optional hop limit.
 
     ``lifetime = "deadline"`` (the default): a copy carries the absolute deadline, origin's clock + expiry,
-    and each receiver compares it with its own clock (F1). ``lifetime = "remaining"`` (F1r, issue 23): a
+    and each receiver compares it with its own clock (F1). ``lifetime = "remaining"`` (F1r): a
     copy carries its remaining lifetime; each hop consumes ``hop_cost`` of it (Kobayashi et al. §III-A:
     "consuming a single timestep per hop"), and a copy with a negative remainder has expired. No clock is
     compared across robots, so clock offset and drift cannot change who receives the message.

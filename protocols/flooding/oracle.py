@@ -162,6 +162,6 @@ def forwarding(result: Result) -> list[Outcome]:
 # ---------------------------------------------------------------- conformance suite
 
 
-# Exact arrival ticks hold only under the lockstep clock; a realtime run asks for flooding.component (issue 25).
+# Exact arrival ticks hold only under the lockstep clock; a realtime run asks for flooding.component.
 reach.clocks = ("lockstep",)
 reach.instead = {"realtime": "flooding.component"}

@@ -148,7 +148,7 @@ def links_within_db(result: Result) -> list[Outcome]:
 def reached(result: Result, tol: float | None = None, slack: float = 1.0) -> list[Outcome]:
     """Each reachable target's worker comes within r_col of it (horizontally) in time.
 
-    The bound is the issue's T = planning + n (bidding + d_s / v_max) + d_path / v_max with bidding =
+    The bound is the specified T = planning + n (bidding + d_s / v_max) + d_path / v_max with bidding =
     ``bid_time``, plus the elections (``at`` and one bid_time per target up to this one) and 60 s per kill,
     times ``slack``. An unreachable target is reported so by its worker (plan_status), not looped on.
     """

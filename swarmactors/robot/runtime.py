@@ -23,7 +23,7 @@ log = logging.getLogger(__name__)
 
 # realtime: robots stepped (or handed frames) per event-loop callback: RT_SLICE on hosts of up to RT_SMALL_HOST
 # robots, RT_SLICE_LARGE on bigger ones; between two slices the loop hands over the deliveries that fell due.
-# Measured on a quiet machine (docs/benchmarks.md, "Realtime (issue 22): ... sliced hosts"): N = 1000, K = 2
+# Measured on a quiet machine (benchmarks/log/2026-12-02.md, "Every host is sliced"): N = 1000, K = 2
 # (500 robots a host) p50 / p99 of latency - c 2.1 / 7.7 ms unsliced, 1.35 / 5.6 with 128, 1.17 / 4.9 with 64;
 # N = 100, K = 2: 16 gives the lower p50 (0.17 against 0.25 ms with 64).
 RT_SLICE = 16

@@ -222,7 +222,7 @@ function render() {
   panel(f, field, col);
 }
 
-// The world's space (issue 14): fetched once from /api/space, drawn under the robots.
+// The world's space: fetched once from /api/space, drawn under the robots.
 function drawSpace(ctx, T, f) {
   if (!f.space) return;
   if (S.space === undefined) {
