@@ -4,7 +4,7 @@ Every robot broadcasts one frame per tick on a 100 x 100 grid (spacing 0.5, rang
 grid). The run must do all its ticks with no robot failed and no frame dropped, and deliver exactly one frame
 per directed in-range pair per tick from the second tick on (latency one tick), counted here with a k-d tree.
 The trace is written in ``summary`` mode: its footer's ``trace_hash`` must be the run's, and every tick record
-must count its deliveries. Robot-ticks per second at this size are in docs/benchmarks.md ("World tick").
+must count its deliveries. Robot-ticks per second at this size are in docs/benchmarks.md ("Lockstep").
 """
 
 from __future__ import annotations

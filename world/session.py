@@ -9,7 +9,7 @@ In lockstep a host registers with one Zenoh query on ``up/{host}``, then each st
 carrying its outputs of the previous tick; the session puts the next tick's inputs on ``down/{host}`` only once
 every registered live host is in (the barrier), and the radio then decides the tick's frames at once. The host
 subscribes to ``down/{host}`` before it registers, so no input can be lost to a start-up race. Steps are not
-queries because Zenoh keeps every query's state until its timeout (docs/benchmarks.md, "A host's memory").
+queries because Zenoh keeps every query's state until its timeout (benchmarks/log/2026-12-01.md, "A host's memory").
 """
 
 from __future__ import annotations
