@@ -13,7 +13,8 @@ this script in ``--one`` mode on that tree (``PYTHONPATH``), so each side builds
 and steps its host through its own API; the baseline's copy must have ``--one`` (commits from 30ba8fc on);
 runs are interleaved (A B B A …), ``--repeats`` times each, with the product's GC setting
 (``swarmactors.hosting.quiet_gc``). The robots' reports must agree. ``--profile`` prints a cProfile of this
-tree's step instead. Nothing is asserted; the numbers go to docs/benchmarks.md and benchmarks/log/ ("A robot host's lockstep step").
+tree's step instead. Nothing is asserted; the numbers go to docs/benchmarks.md and benchmarks/log/ ("A robot
+host's lockstep step").
 """
 
 from __future__ import annotations

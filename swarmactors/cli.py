@@ -22,12 +22,12 @@ from pathlib import Path
 from rich.console import Console
 
 from swarmactors import export as export_cli
-from swarmactors import newproject, schedule_cli
+from swarmactors import newproject
 from swarmactors import scenario as scenario_mod
 from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME, run_exit
 from swarmactors.hosting import WORLD_GONE_S, HostError, refusal_line, serve_host
 from swarmactors.launcher import new_run_id, private_endpoints, run_dir, run_world, scenario_file, validate_run
-from swarmactors.plugins import BEHAVIORS, PluginError, resolve
+from swarmactors.plugins import BEHAVIORS, COMMANDS, PluginError, available, family_command, resolve
 from swarmactors.progress import RunProgress, crash_tracebacks, summary_table
 from swarmactors.scenario import ScenarioError
 from transport import Endpoints, Keys, Security, ensure_files, lease_settings
@@ -165,7 +165,8 @@ def build_parser() -> argparse.ArgumentParser:
     certs = sub.add_parser("cluster-certs", help="create the CA and the certificate of a Dask cluster with TLS")
     certs.add_argument("directory", type=Path, help="where ca.pem, cluster.pem and cluster.key go (kept if there)")
     certs.add_argument("--name", action="append", default=[], help="another name the certificate is valid for")
-    schedule_cli.add_parser(sub)
+    for name in sorted(available(COMMANDS)):  # the families' own subcommands (TSC's schedule, ...)
+        family_command(name).add_parser(sub)
     export_cli.add_parser(sub)  # swarmactors export RUN
     newproject.add_parser(sub)  # swarmactors new NAME
     schema = sub.add_parser("schema", help="print the JSON Schema of a scenario file, for editors that complete and "
@@ -273,8 +274,8 @@ def _main(args) -> int:
             return _robots(args)  # bad credentials files raise ValueError: exit 2
         if args.command == "check":
             return _check(args, err)
-        if args.command == "schedule":
-            return schedule_cli.command(args)  # exit codes as documented there (0, 1, 2, 3)
+        if args.command in available(COMMANDS):
+            return family_command(args.command).command(args)  # exit codes as the family's module documents
         if args.command == "schema":
             from swarmactors.schema import json_schema
 

@@ -22,9 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from swarmactors.export import Headings, initial_headings
 from swarmactors.result import to_jsonable
 from swarmactors.scene import Scene
+from swarmactors.trace_tables import Headings, initial_headings
 from transport.messages import malformed_count
 from world.linkrules import DROP_CAUSES
 

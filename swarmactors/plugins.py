@@ -29,6 +29,7 @@ from typing import Any
 
 BEHAVIORS = "swarmactors.behaviors"
 CHECKS = "swarmactors.checks"
+COMMANDS = "swarmactors.commands"  # a family's subcommands: name = "package.module" with add_parser and command
 
 
 class PluginError(LookupError):
@@ -58,6 +59,17 @@ def resolve(group: str, name: str) -> Any:
         raise PluginError(f"cannot import {module_name!r} for {name!r}: {exc.__class__.__name__}: {exc}") from None
     except Exception as exc:
         raise PluginError(f"cannot import {module_name!r} for {name!r}: {exc.__class__.__name__}: {exc}") from None
+
+
+def family_command(name: str) -> Any:
+    """The module behind a registered subcommand: ``add_parser(subparsers)`` adds it, ``command(args)`` runs it.
+
+    A family contributes its own subcommands (TSC's ``schedule``) so the core never imports a protocol.
+    """
+    module = pkgutil.resolve_name(available(COMMANDS)[name])
+    if not (callable(getattr(module, "add_parser", None)) and callable(getattr(module, "command", None))):
+        raise PluginError(f"subcommand {name!r}: {module.__name__} has no add_parser and command")
+    return module
 
 
 class RefusedBehavior(PluginError):

@@ -23,6 +23,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from swarmactors.trace_tables import table_frame
+
 if TYPE_CHECKING:  # networkx is the oracle's: imported where a graph is built, never by a robot host
     import networkx as nx
 
@@ -382,15 +384,16 @@ class Result:
 
     def poses_table(self):
         """The export's ``poses`` table as a pandas DataFrame (needs pandas): a row per tick and alive robot."""
-        from swarmactors.export import dataframe
-
-        return dataframe(self, "poses")
+        return table_frame("poses", self["scenario"], self._records_or_refuse())
 
     def frames_table(self):
         """The export's ``frames`` table as a pandas DataFrame (needs pandas): every frame sent, delivered, dropped."""
-        from swarmactors.export import dataframe
+        return table_frame("frames", self["scenario"], self._records_or_refuse())
 
-        return dataframe(self, "frames")
+    def _records_or_refuse(self):
+        if self.trace_path is None:
+            raise ValueError("this run has no trace (run.trace = false?): no tables")
+        return self.records
 
     poses = poses_table  # the names of the first release, kept
     frame_log = frames_table

@@ -1201,7 +1201,7 @@ def test_schedule_model_too_large_for_its_tasks_and_slots_is_refused():
 def test_schedule_time_limit_covers_building_the_model():
     """A limit that runs out while the 100-task model is built: no solve, the message says what ran out."""
     from protocols.secs import schedule as tsc
-    from swarmactors.schedule_cli import load_instance
+    from protocols.secs.schedule_cli import load_instance
 
     inst, _ = load_instance(_chain_instance_file())
     started = time.monotonic()
