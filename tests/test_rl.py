@@ -296,3 +296,19 @@ def test_the_rl_behaviour_without_an_environment_stands_still_in_an_ordinary_run
     result = run_inprocess(sc, out=tmp_path)
     assert [r["pose"][:2] for r in result.data["robots"].values()] == [[0.0, 0.0], [2.0, 0.0]]
     assert [r["rl"] for r in result.data["robots"].values()] == [{"observed": 0, "sent": 0, "heard": 0}] * 2
+
+
+def test_payloads_that_are_not_numbers_are_left_out_and_too_many_are_subsampled_by_the_robots_rng():
+    from swarmactors.behavior import Frame
+    from swarmactors.rl import Observe
+
+    class Ctx:
+        rng = np.random.default_rng(0)
+
+    observer = Observe(("messages",), 0, 2, 2, 0, (), 2)
+    bodies = [[0.5, 0.5], ["x", 1], [1, 2, 3], None, [float("nan"), 0.0], [2.0, -3.0]]
+    rows = observer._messages(Ctx, [Frame(i, "rl", b, 1, 0.0) for i, b in enumerate(bodies)])
+    assert rows.tolist() == [[0.5, 0.5, 1.0], [1.0, -1.0, 1.0]]  # clipped to [-1, 1]
+    many = [Frame(i, "rl", [i / 10, 0.0], 1, 0.0) for i in range(6)]
+    rows = observer._messages(Ctx, many)
+    assert rows[:, 2].tolist() == [1.0, 1.0] and len(set(rows[:, 0].tolist())) == 2

@@ -97,13 +97,18 @@ class Observe:
         """Rows (payload..., 1) of the payloads received, in (sender, seq) order; a random subset if too many."""
         p = self.payload
         rows = np.zeros((self.messages, p + 1), dtype=np.float32)
-        good = [f.body for f in inbox if _payload_ok(f.body, p)]
-        if len(good) > self.messages:  # the robot's own generator: deterministic for a seed
-            keep = np.sort(ctx.rng.choice(len(good), self.messages, replace=False))
-            good = [good[i] for i in keep.tolist()]
-        if good:
-            rows[: len(good), :p] = np.clip(np.array(good, dtype=np.float64), -1.0, 1.0)
-            rows[: len(good), p] = 1.0
+        bodies = [f.body for f in inbox if type(f.body) is list and len(f.body) == p]
+        if not bodies or not self.messages:
+            return rows
+        try:
+            got = np.array(bodies, dtype=np.float64)
+        except (TypeError, ValueError):  # another robot may send anything: keep the payloads of numbers
+            got = np.array([b for b in bodies if _payload_ok(b, p)], dtype=np.float64).reshape(-1, p)
+        got = got[np.isfinite(got).all(axis=1)]
+        if len(got) > self.messages:  # the robot's own generator: deterministic for a seed
+            got = got[np.sort(ctx.rng.choice(len(got), self.messages, replace=False))]
+        rows[: len(got), :p] = np.clip(got, -1.0, 1.0)
+        rows[: len(got), p] = 1.0
         return rows
 
     def _objects(self, ctx: Context) -> np.ndarray:

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from swarmactors.scenario import mutual_links
 
@@ -127,6 +128,7 @@ class Dispersion(Task):
             raise ValueError(f"Dispersion cells = {cells!r}: give an integer in 2..1000")
         self.radius, self.cells, self.connected = radius, cells, connected
         self._grid: np.ndarray | None = None
+        self._last: tuple[Truth, dict[str, float]] | None = None
 
     def check(self, env: Any) -> None:
         if env.bounds is None:
@@ -141,14 +143,24 @@ class Dispersion(Task):
         return self._grid
 
     def metrics(self, truth: Truth) -> dict[str, float]:
+        if self._last is not None and self._last[0] is truth:  # reward and metrics of one step: computed once
+            return self._last[1]
         ids = [i for i in truth.agents.values() if truth.alive[i]]
         if not ids:
             return {"coverage": 0.0, "component": 0.0}
         pts = self._points(truth)
         radius = truth.sensing[ids] / 2 if self.radius is None else np.full(len(ids), float(self.radius))
-        d2 = ((pts[:, None, :] - truth.pos[ids][None, :, :2]) ** 2).sum(axis=2)
-        covered = (d2 <= radius[None, :] ** 2).any(axis=1).mean()
-        return {"coverage": float(covered), "component": truth.largest_component()}
+        pos = truth.pos[ids][:, :2]
+        if radius.min() == radius.max():  # the nearest agent of each grid point, from a k-d tree
+            r = float(radius[0])
+            dist, _ = cKDTree(pos).query(pts, distance_upper_bound=r * (1 + 1e-9) + 1e-12)
+            covered = float((dist <= r).mean())
+        else:
+            d2 = ((pts[:, None, :] - pos[None, :, :]) ** 2).sum(axis=2)
+            covered = float((d2 <= radius[None, :] ** 2).any(axis=1).mean())
+        out = {"coverage": covered, "component": truth.largest_component()}
+        self._last = (truth, out)
+        return out
 
     def reward(self, truth: Truth) -> Reward:
         m = self.metrics(truth)
