@@ -64,14 +64,25 @@ class InProcessRun:
         return self.tick >= self.ticks or self.sim.stop_request is not None
 
     async def step(self) -> dict:
-        """One tick: the world's begin, every runtime's step, the outputs taken and transmitted, the end."""
+        """One tick: ``robots_step`` then ``world_step``; the tick's record."""
+        return self.world_step(await self.robots_step())
+
+    async def robots_step(self) -> dict[str, list[RobotOut]]:
+        """A tick's first half: the world's begin, then every live host's runtime stepped on its inputs.
+
+        Returns each host's robot rows; ``world_step`` takes them (an environment acts in between: swarmactors.rl).
+        """
         sim, tick = self.sim, self.tick
         sim.begin(tick, float(tick))
-        hosts = sorted(sim.live_hosts())
         outs: dict[str, list[RobotOut]] = {}
-        for host in hosts:
+        for host in sorted(sim.live_hosts()):
             outs[host] = await self.runtimes[host].step(sim.inputs(host))
-        for host in hosts:
+        return outs
+
+    def world_step(self, outs: dict[str, list[RobotOut]]) -> dict:
+        """A tick's second half: the hosts' rows taken (by host name), transmitted at once, the tick's end."""
+        sim, tick = self.sim, self.tick
+        for host in sorted(outs):
             sim.take(host, Uplink(host, tick, outs[host]))
         sim.transmit()
         rec = sim.end()

@@ -1,6 +1,7 @@
 """Robot hosts run without the oracle: no networkx, no scipy, no ``swarmactors.conformance`` (issue 13).
 
 Nor the ``[foxglove]`` extra (foxglove-sdk, mcap): the MCAP export and the live Foxglove feed run beside the world.
+Nor the ``[rl]`` extra (pettingzoo, gymnasium): the ``rl`` behaviour loads without it (swarmactors/rl/behavior.py).
 
 The world process may import scipy (KD-trees); a robot host process (K >= 1) runs behaviours only. Every
 built-in behaviour runs in some shipped scenario; each is run for a few ticks with one host process, and a
@@ -21,7 +22,7 @@ SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 # between them, every built-in behaviour: beacon, biconnectivity, cbaa, flooding, aat, roles, stigmergy, election
 SHIPPED = ["beacon", "biconnectivity-check", "cbaa", "flooding", "roles-aat", "roles-patrol", "stigmergy"]
 ORACLE = ("sorted(m for m in sys.modules"
-          " if m.split('.')[0] in {'networkx', 'scipy', 'foxglove', 'mcap'}"
+          " if m.split('.')[0] in {'networkx', 'scipy', 'foxglove', 'mcap', 'pettingzoo', 'gymnasium'}"
           " or m.startswith('swarmactors.conformance'))")
 
 
