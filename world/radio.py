@@ -10,8 +10,9 @@ once (a lockstep tick's every frame; a realtime delivery window's), with numpy:
   that arrives as *overheard* (trace ``ovh``, never handed to the behaviour); ``radio.exclude = "filter"`` is
   the older rule where excluded robots are no candidates at all;
 * rules - world/linkrules.py: each drops pairs under its cause, in order: ``dead`` and ``range`` (addressed
-  frames), ``occlusion``, ``bandwidth``, ``cut`` (cuts and partitions), ``loss`` (Bernoulli, the distance
-  model of Swarm Relays Sec. III-A, Gilbert-Elliott bursts), then any a scenario adds (``[[radio.rules]]``);
+  frames), ``occlusion``, ``bandwidth``, ``cut`` (cuts and partitions), with ``[radio.channel]`` the shared
+  channel's ``mac``, ``pathloss`` and ``sinr`` (world/channel.py), ``loss`` (Bernoulli, the distance model of
+  Swarm Relays Sec. III-A, Gilbert-Elliott bursts), then any a scenario adds (``[[radio.rules]]``);
 * latency - lockstep: exactly ``latency`` ticks; realtime: drawn uniformly in [latency_min_s, latency_s]
   seconds per (frame, receiver).
 
@@ -94,10 +95,11 @@ def _pairs(indptr: np.ndarray, rows: np.ndarray, frame_ids: np.ndarray) -> tuple
 class Medium:
     """Decides receivers and drops for the frames of one tick."""
 
-    def __init__(self, config: Radio, seed: int):
+    def __init__(self, config: Radio, seed: int, dt: float = 1.0, realtime: bool = False):
+        """``dt`` and ``realtime``: the run's tick length (seconds) and clock, for the shared channel."""
         self.config = config  # the scenario's [radio] (transport.scenario.Radio); set_loss replaces it
         self.seed = seed
-        self.rules = pipeline(config, seed, Severance())  # world/linkrules.py, in order
+        self.rules = pipeline(config, seed, Severance(), dt, realtime)  # world/linkrules.py, in order
         self._cut = self.rule("cut")  # world.linkrules.Cut
 
     def rule(self, name: str) -> LinkRule:
