@@ -222,7 +222,7 @@ class Channel(_Spec):
                 "started") = 20e-6
     cs_threshold_dbm: key(Number | None, "`csma`: a radio senses the channel busy when a frame on the air reaches it "
                           "at this power or more", default="`sensitivity_dbm`") = None
-    backoff_slots: key(Annotated[int, Meta(ge=1, le=1 << 20)], "`csma`: the first contention window, in slots; it "
+    backoff_slots: key(Annotated[int, Meta(ge=1, le=65536)], "`csma`: the first contention window, in slots; it "
                        "doubles after each busy sense (at most 1024 times the first)") = 16
     max_attempts: key(Annotated[int, Meta(ge=1, le=1000)], "`csma`: a frame that finds the channel busy this many "
                       "times is dropped as `deferred_too_long`") = 8

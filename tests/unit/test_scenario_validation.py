@@ -76,6 +76,7 @@ RADIO = {
     "loss_good": (NUMBER, None), "loss_bad": (NUMBER, None), "rab": (BOOLEAN, False),
     "exclude": (STRING, "overheard"),  # issue 23: excluded robots overhear broadcasts
     "rules": ("list", []),  # more radio rules (world/linkrules.py)
+    "channel": ("table", None),  # the shared channel (world/channel.py): off
 }
 WORLD = {"dims": (INTEGER, 2), "bounds": ("list", None), "objects": ("list", []), "max_robots": (INTEGER, 10_000),
          "obstacles": ("list", []), "map": ("table", None), "blocking": (BOOLEAN, False)}
