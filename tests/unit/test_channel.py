@@ -236,3 +236,25 @@ def test_bad_channel_keys_are_refused_naming_the_key(channel, key, words):
     with pytest.raises((ScenarioError, SpecError)) as err:
         resolve({"run": {"ticks": 1}, "radio": {"channel": channel}, "robots": [{"count": 2}]}, "bad.toml")
     assert key in str(err.value) and words in str(err.value), str(err.value)
+
+
+# ------------------------------------------------------------------------------------------------ end to end
+def beacons_on_a_channel() -> dict:
+    return {
+        "run": {"name": "channel", "seed": 5, "ticks": 8},
+        "radio": {"range": 40.0, "channel": {"mac": "csma", "window_s": 0.004}},
+        "robots": [{"count": 12, "placement": "grid", "spacing": 12.0, "behaviors": [{"use": "beacon", "size": 40}]}],
+        "checks": [],
+    }
+
+
+@pytest.mark.slow
+def test_a_run_with_the_channel_has_the_same_trace_hash_in_process_and_over_zenoh(tmp_path):
+    import swarmactors
+    from swarmactors.inprocess import run_inprocess
+
+    inproc = run_inprocess(beacons_on_a_channel(), out=tmp_path / "k0")
+    zenoh = swarmactors.run(beacons_on_a_channel(), out=tmp_path / "k2", processes=2)
+    assert zenoh["trace_hash"] == inproc["trace_hash"]
+    dropped = inproc["world"]["dropped"]
+    assert dropped["collision"] > 0 and dropped["below_sensitivity"] > 0 and inproc["world"]["deliveries"] > 0
