@@ -222,10 +222,11 @@ class Channel(_Spec):
                 "started") = 20e-6
     cs_threshold_dbm: key(Number | None, "`csma`: a radio senses the channel busy when a frame on the air reaches it "
                           "at this power or more", default="`sensitivity_dbm`") = None
-    backoff_slots: key(Annotated[int, Meta(ge=1, le=65536)], "`csma`: the first contention window, in slots; it "
-                       "doubles after each busy sense (at most 1024 times the first)") = 16
+    backoff_slots: key(Annotated[int, Meta(ge=1, le=65536)], "`csma`: the contention window: after a busy "
+                       "sense a frame waits until the channel is free plus a backoff drawn in [0, `backoff_slots`) "
+                       "slots") = 16
     max_attempts: key(Annotated[int, Meta(ge=1, le=1000)], "`csma`: a frame that finds the channel busy this many "
-                      "times is dropped as `deferred_too_long`") = 8
+                      "times is dropped as `deferred_too_long` (as is one that would start after its tick)") = 32
 
     def check(self, where: str = "radio.channel") -> None:
         """Fill the keys not given from the preset; the CSMA and slotted keys go with their MAC only."""

@@ -10,7 +10,8 @@ The model behind three rules of the radio (world/linkrules.py), all deterministi
   at a slot boundary (lockstep: a slot drawn uniformly; realtime: the next boundary), ``csma`` senses first: a
   frame on the air at the sender's power ``cs_threshold_dbm`` or more, that started at least ``slot_s`` ago (the
   time to sense it), makes the channel busy; the frame then waits until that frame ends plus a random backoff of
-  ``[0, W)`` slots (W = ``backoff_slots``, doubling after each busy sense, at most 1024 times) and senses again.
+  ``[0, backoff_slots)`` slots and senses again (the window does not grow: as IEEE 802.11 broadcasts, no frame is
+  acknowledged, so none is known to have collided).
   A frame that finds the channel busy ``max_attempts`` times, or would start after the end of its tick
   (realtime: ``run.dt`` after its send time), is dropped as ``deferred_too_long``;
 * **received power** - log-distance path loss with log-normal shadowing:
@@ -45,7 +46,6 @@ from transport.scenario import Channel
 from world import rng
 from world.sensing import gather
 
-CW_MAX_FACTOR = 1024  # the contention window grows to at most this many times ``backoff_slots``
 TOUCH_S = 1e-9  # frames that overlap by less than this (a nanosecond: rounding of back-to-back slots) do not
 SHARED_KEY = "channel.schedule"  # where the decision's schedule waits for the next rule (``Transmissions.shared``)
 
@@ -211,44 +211,78 @@ class ChannelModel:
         return Schedule(start, start + air, on_air)
 
     def _csma(self, tx, arrival: np.ndarray, deadline: np.ndarray, air: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Carrier sense with binary exponential backoff, frame by frame in the order of their send times."""
+        """Carrier sense with random backoff, frame by frame in the order of their send times."""
         c = self.config
         n = len(arrival)
         start = arrival.copy()
+        end = arrival + air
         on_air = np.zeros(n, dtype=bool)
         src, seq = tx.src.tolist(), tx.seq.tolist()
-        pos = tx.positions
+        pos = tx.positions.tolist()
+        senses: dict[tuple[int, int], bool] = {}  # (a, b), a < b: they sense each other (reciprocal)
+        threshold = float(c.cs_threshold_dbm)
         heap = [(float(arrival[k]), src[k], seq[k], k) for k in range(n)]
         heapq.heapify(heap)
         active: list[int] = []  # frames on the air that may still be sensed
         attempts = [0] * n
-        slot, threshold = float(c.slot_s), float(c.cs_threshold_dbm)
-        window_max = c.backoff_slots * CW_MAX_FACTOR
+        slot = float(c.slot_s)
         while heap:
             t, s, q, k = heapq.heappop(heap)
-            active = [j for j in active if start[j] + air[j] > t]
-            sensed = [j for j in active if start[j] + slot <= t]
-            busy_until = -math.inf
-            if sensed:
-                js = np.array(sensed, dtype=np.int64)
-                others = tx.src[js]
-                d = np.linalg.norm(pos[others] - pos[s], axis=1)
-                p = self.power_dbm(tx.tick, others, np.full(len(js), s), d)
-                busy = (others == s) | (p >= threshold)
-                if busy.any():
-                    busy_until = float((start[js] + air[js])[busy].max())
-            if busy_until == -math.inf:
-                start[k] = t
+            active = [j for j in active if end[j] > t]
+            busy = []
+            for j in active:
+                if start[j] + slot > t:
+                    continue  # started too recently to be sensed
+                o = src[j]
+                if o != s:
+                    pair = (o, s) if o < s else (s, o)
+                    heard = senses.get(pair)
+                    if heard is None:
+                        p = self.link_dbm(tx.tick, o, s, math.dist(pos[o], pos[s]))
+                        heard = senses[pair] = p >= threshold
+                    if not heard:
+                        continue
+                busy.append(end[j])
+            if not busy:
+                start[k], end[k] = t, t + air[k]
                 on_air[k] = True
                 active.append(k)
                 continue
             attempts[k] += 1
             if attempts[k] >= c.max_attempts:
                 continue
-            w = min(c.backoff_slots << (attempts[k] - 1), window_max)
-            b = math.floor(float(rng.uniform(self.seed, rng.BACKOFF, tx.tick, s, q, attempts[k])) * w)
-            later = busy_until + b * slot
+            b = math.floor(uniform1(self.seed, rng.BACKOFF, tx.tick, s, q, attempts[k]) * c.backoff_slots)
+            later = float(max(busy)) + b * slot
             if later >= deadline[k]:
                 continue
             heapq.heappush(heap, (later, s, q, k))
         return start, on_air
+
+    def link_dbm(self, tick: int, a: int, b: int, d: float) -> float:
+        """``power_dbm`` for one link, in plain Python (the same value)."""
+        c = self.config
+        if c.max_range is not None and d > c.max_range:
+            return -math.inf
+        p = c.tx_power_dbm - c.l0_db - 10.0 * c.path_loss_exponent * math.log10(max(d * c.unit_m, c.d0) / c.d0)
+        if c.shadowing_sigma_db > 0:
+            u = uniform1(self.seed, rng.SHADOW, tick // c.shadowing_ticks, min(a, b), max(a, b))
+            p += c.shadowing_sigma_db * float(ndtri(u + 0.5 / (1 << 53)))
+        return p
+
+
+_MASK = (1 << 64) - 1
+_GOLDEN, _M1, _M2 = 0x9E3779B97F4A7C15, 0xBF58476D1CE4E5B9, 0x94D049BB133111EB
+
+
+def _mix(z: int) -> int:
+    z = ((z ^ (z >> 30)) * _M1) & _MASK
+    z = ((z ^ (z >> 27)) * _M2) & _MASK
+    return z ^ (z >> 31)
+
+
+def uniform1(seed: int, *fields: int) -> float:
+    """``world.rng.uniform`` for one key, in plain Python integers (the same value, faster for one draw)."""
+    state = _mix((seed + _GOLDEN) & _MASK)
+    for v in fields:
+        state = _mix(state ^ (((v & _MASK) + _GOLDEN + ((state << 6) & _MASK) + (state >> 2)) & _MASK))
+    return (state >> 11) * (1.0 / (1 << 53))

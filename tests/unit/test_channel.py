@@ -258,3 +258,15 @@ def test_a_run_with_the_channel_has_the_same_trace_hash_in_process_and_over_zeno
     assert zenoh["trace_hash"] == inproc["trace_hash"]
     dropped = inproc["world"]["dropped"]
     assert dropped["collision"] > 0 and dropped["below_sensitivity"] > 0 and inproc["world"]["deliveries"] > 0
+
+
+def test_the_plain_python_draws_of_carrier_sense_equal_the_array_ones():
+    from world import rng
+    from world.channel import uniform1
+
+    for key in [(1, 2, 3), (5, -1, 7, 2**40), (0,)]:
+        assert uniform1(99, *key) == float(rng.uniform(99, *key))
+    m = ChannelModel(Radio.from_dict({"channel": {"max_range": 30.0, "shadowing_sigma_db": 6.0}}).channel, 3)
+    a, b, d = np.array([1, 5, 9]), np.array([4, 2, 9]), np.array([3.3, 12.0, 40.0])
+    assert m.power_dbm(7, a, b, d).tolist() == pytest.approx([m.link_dbm(7, int(x), int(y), float(z))
+                                                              for x, y, z in zip(a, b, d, strict=True)], abs=1e-9)
