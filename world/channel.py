@@ -214,14 +214,14 @@ class ChannelModel:
         """Carrier sense with random backoff, frame by frame in the order of their send times."""
         c = self.config
         n = len(arrival)
-        start = arrival.copy()
-        end = arrival + air
-        on_air = np.zeros(n, dtype=bool)
+        start, end, air_s = arrival.tolist(), (arrival + air).tolist(), air.tolist()
+        on_air = [False] * n
         src, seq = tx.src.tolist(), tx.seq.tolist()
         pos = tx.positions.tolist()
         senses: dict[tuple[int, int], bool] = {}  # (a, b), a < b: they sense each other (reciprocal)
         threshold = float(c.cs_threshold_dbm)
-        heap = [(float(arrival[k]), src[k], seq[k], k) for k in range(n)]
+        deadlines = deadline.tolist()
+        heap = [(start[k], src[k], seq[k], k) for k in range(n)]
         heapq.heapify(heap)
         active: list[int] = []  # frames on the air that may still be sensed
         attempts = [0] * n
@@ -244,7 +244,7 @@ class ChannelModel:
                         continue
                 busy.append(end[j])
             if not busy:
-                start[k], end[k] = t, t + air[k]
+                start[k], end[k] = t, t + air_s[k]
                 on_air[k] = True
                 active.append(k)
                 continue
@@ -252,11 +252,11 @@ class ChannelModel:
             if attempts[k] >= c.max_attempts:
                 continue
             b = math.floor(uniform1(self.seed, rng.BACKOFF, tx.tick, s, q, attempts[k]) * c.backoff_slots)
-            later = float(max(busy)) + b * slot
-            if later >= deadline[k]:
+            later = max(busy) + b * slot
+            if later >= deadlines[k]:
                 continue
             heapq.heappush(heap, (later, s, q, k))
-        return start, on_air
+        return np.array(start, dtype=float), np.array(on_air, dtype=bool)
 
     def link_dbm(self, tick: int, a: int, b: int, d: float) -> float:
         """``power_dbm`` for one link, in plain Python (the same value)."""
