@@ -12,7 +12,8 @@ in every case, so the candidates are the same):
 * ``none``    - the channel without a MAC: path loss and shadowing only (generic preset: 0 dBm, n = 3,
   L0 = 40 dB, σ = 4 dB, noise −100 dBm, sensitivity −95 dBm, SINR 6 dB);
 * ``aloha``, ``slotted``, ``csma`` - the same with contention. Forwarders react at once: each tick's frames are
-  sent within its first ``window_s`` = 5 ms (a frame of the flood is about 2.6 ms on the air at 250 kbit/s).
+  sent within its first ``window_s`` = 5 ms (a frame of the flood, 25 bytes of body, is 1.7 ms on the air at
+  250 kbit/s).
 
 Per (radio, N), over ``--seeds`` seeds: the delivery ratio (robots that received the message / (N − 1)), the
 mean latency in ticks of those that did, and the copies dropped as collision and below sensitivity. Prints a
