@@ -194,7 +194,8 @@ class Channel(_Spec):
     preamble_s: _ckey(number(ge=0), "preamble_s", "seconds of preamble before every frame") = UNSET
     overhead_bytes: _ckey(Annotated[int, Meta(ge=0)], "overhead_bytes", "header and trailer bytes the radio adds to "
                           "every frame body") = UNSET
-    tx_power_dbm: _ckey(Number, "tx_power_dbm", "transmit power of every robot, dBm") = UNSET
+    tx_power_dbm: _ckey(Number, "tx_power_dbm", "transmit power, dBm, of every robot whose group "
+                        "does not set its own `tx_power_dbm`") = UNSET
     path_loss_exponent: _ckey(Positive, "path_loss_exponent", "n of the log-distance path loss: the received power "
                               "is `tx_power_dbm` − `l0_db` − 10·n·log10(d/`d0`) + X, X ~ N(0, σ²)") = UNSET
     l0_db: _ckey(Number, "l0_db", "path loss at the reference distance `d0`, dB") = UNSET
@@ -517,11 +518,14 @@ ROBOT_KEYS: list[tuple[str, Any, Any]] = [
                          "seed"), 0.0),
     ("clock_drift", key(number(ge=-MAX_DRIFT_PPM, le=MAX_DRIFT_PPM) | Interval, "drift of the robot's own clock, ppm; "
                         "a range [lo, hi] (within the same limits) is drawn per robot from the run's seed"), 0.0),
+    ("tx_power_dbm", key(Number | None, "these robots' transmit power, dBm, on the shared channel "
+                         "(`[radio.channel]`; without it the key has no effect)",
+                         default="`radio.channel.tx_power_dbm`"), None),
 ]
 ROBOT_FIELDS = tuple(name for name, _, _ in ROBOT_KEYS)
 # a robot spec's JSON leaves these out while they are unset (None) or, for the situated keys, at their default
 SPARSE = ("speed", "turn_rate", "altitude", "climb_rate", "sensing_frame", "range_noise", "bearing_noise",
-          "heading_offset", "sensing_to", "clock_offset", "clock_drift")
+          "heading_offset", "sensing_to", "clock_offset", "clock_drift", "tx_power_dbm")
 RANGE_LIMITS = {"clock_offset": MAX_CLOCK_OFFSET_S, "clock_drift": MAX_DRIFT_PPM}  # [lo, hi] values within +-limit
 
 PLACEMENT_KEYS: list[tuple[str, Any, Any]] = [

@@ -97,19 +97,27 @@ class ChannelModel:
     def bits(self, sizes: np.ndarray) -> np.ndarray:
         return (np.asarray(sizes, dtype=float) + self.config.overhead_bytes) * 8.0
 
-    def mean_dbm(self, d: np.ndarray) -> np.ndarray:
-        """Mean received power at distances ``d`` (length units): the log-distance path loss."""
+    def mean_dbm(self, d: np.ndarray, tx_dbm: np.ndarray | None = None) -> np.ndarray:
+        """Mean received power at distances ``d`` (length units): the log-distance path loss.
+
+        ``tx_dbm``: the transmitters' powers (None: ``tx_power_dbm``).
+        """
         c = self.config
         d = np.asarray(d, dtype=float)
         metres = np.maximum(d * c.unit_m, c.d0)
-        p = c.tx_power_dbm - c.l0_db - 10.0 * c.path_loss_exponent * np.log10(metres / c.d0)
+        power = c.tx_power_dbm if tx_dbm is None else tx_dbm
+        p = power - c.l0_db - 10.0 * c.path_loss_exponent * np.log10(metres / c.d0)
         if c.max_range is not None:
             p = np.where(d > c.max_range, -np.inf, p)
         return p
 
-    def power_dbm(self, tick: int, a: np.ndarray, b: np.ndarray, d: np.ndarray) -> np.ndarray:
-        """Received power (dBm) between robots ``a`` and ``b`` at distance ``d``, with the link's shadowing."""
-        p = self.mean_dbm(d)
+    def power_dbm(self, tick: int, a: np.ndarray, b: np.ndarray, d: np.ndarray,
+                  tx_dbm: np.ndarray | None = None) -> np.ndarray:
+        """Received power (dBm) from ``a`` at ``b``, distance ``d`` apart, with the link's shadowing.
+
+        ``tx_dbm``: the transmitters' powers (None: ``tx_power_dbm``).
+        """
+        p = self.mean_dbm(d, tx_dbm)
         sigma = self.config.shadowing_sigma_db
         if sigma > 0 and len(p):
             block = tick // self.config.shadowing_ticks
@@ -119,7 +127,14 @@ class ChannelModel:
     def pair_power(self, tx) -> np.ndarray:
         """Each pair's received power at the send tick (``tx``: a ``Transmissions``)."""
         src = tx.pair_src
-        return self.power_dbm(tx.tick, src, tx.dst, tx.distances())
+        return self.power_dbm(tx.tick, src, tx.dst, tx.distances(), self.tx_dbm(tx, src))
+
+    def tx_dbm(self, tx, senders: np.ndarray) -> np.ndarray | None:
+        """Each of ``senders``' transmit power (its group's ``tx_power_dbm``, else the channel's); None: all alike."""
+        if tx.tx_power is None or not len(tx.tx_power):
+            return None
+        own = tx.tx_power[np.minimum(senders, len(tx.tx_power) - 1)]
+        return np.where(np.isnan(own), self.config.tx_power_dbm, own)
 
     # ------------------------------------------------------------ reception
     def heard_alone(self, tx) -> np.ndarray:
@@ -173,7 +188,7 @@ class ChannelModel:
         transmitting[pair[own]] = True
         pair, sg, r = pair[~own], sg[~own], r[~own]
         d = np.linalg.norm(tx.positions[r] - tx.positions[sg], axis=1)
-        total += np.bincount(pair, weights=mw(self.power_dbm(tx.tick, sg, r, d)), minlength=k)
+        total += np.bincount(pair, weights=mw(self.power_dbm(tx.tick, sg, r, d, self.tx_dbm(tx, sg))), minlength=k)
         return total, transmitting
 
     # ------------------------------------------------------------ medium access
@@ -218,7 +233,9 @@ class ChannelModel:
         on_air = [False] * n
         src, seq = tx.src.tolist(), tx.seq.tolist()
         pos = tx.positions.tolist()
-        senses: dict[tuple[int, int], bool] = {}  # (a, b), a < b: they sense each other (reciprocal)
+        power = self.tx_dbm(tx, np.arange(len(tx.positions)))
+        power = None if power is None else power.tolist()
+        senses: dict[tuple[int, int], bool] = {}  # (a, b): b senses a's frames
         threshold = float(c.cs_threshold_dbm)
         deadlines = deadline.tolist()
         heap = [(start[k], src[k], seq[k], k) for k in range(n)]
@@ -235,10 +252,11 @@ class ChannelModel:
                     continue  # started too recently to be sensed
                 o = src[j]
                 if o != s:
-                    pair = (o, s) if o < s else (s, o)
+                    pair = (o, s)
                     heard = senses.get(pair)
                     if heard is None:
-                        p = self.link_dbm(tx.tick, o, s, math.dist(pos[o], pos[s]))
+                        p = self.link_dbm(tx.tick, o, s, math.dist(pos[o], pos[s]),
+                                          None if power is None else power[o])
                         heard = senses[pair] = p >= threshold
                     if not heard:
                         continue
@@ -258,12 +276,13 @@ class ChannelModel:
             heapq.heappush(heap, (later, s, q, k))
         return np.array(start, dtype=float), np.array(on_air, dtype=bool)
 
-    def link_dbm(self, tick: int, a: int, b: int, d: float) -> float:
+    def link_dbm(self, tick: int, a: int, b: int, d: float, tx_dbm: float | None = None) -> float:
         """``power_dbm`` for one link, in plain Python (the same value)."""
         c = self.config
         if c.max_range is not None and d > c.max_range:
             return -math.inf
-        p = c.tx_power_dbm - c.l0_db - 10.0 * c.path_loss_exponent * math.log10(max(d * c.unit_m, c.d0) / c.d0)
+        power = c.tx_power_dbm if tx_dbm is None else tx_dbm
+        p = power - c.l0_db - 10.0 * c.path_loss_exponent * math.log10(max(d * c.unit_m, c.d0) / c.d0)
         if c.shadowing_sigma_db > 0:
             u = uniform1(self.seed, rng.SHADOW, tick // c.shadowing_ticks, min(a, b), max(a, b))
             p += c.shadowing_sigma_db * float(ndtri(u + 0.5 / (1 << 53)))

@@ -48,15 +48,18 @@ class Transmissions:
     -1 when the receiver is not in the sender's reach), ``pair_src`` and ``distances()``. The world at the send
     tick: ``table`` (every alive robot's reach, world/sensing.py), ``alive``, ``positions``, ``ranges`` (radio
     range per robot), ``hidden`` (aligned with ``table.nbrs``: links an obstacle blocks; None: none), ``radio``
-    (the scenario's ``[radio]``, as the events left it) and ``seed``. ``shared``: a dict the rules of one decision
+    (the scenario's ``[radio]``, as the events left it), ``seed`` and ``tx_power`` (per robot, dBm, for the shared
+    channel; nan or None: the channel's own). ``shared``: a dict the rules of one decision
     may leave per-frame results in for the rules after them (the channel's schedule of the frames).
     """
 
     def __init__(self, tick: int, seed: int, radio: Radio, frames: list, table: Reach, alive: np.ndarray,
-                 positions: np.ndarray, ranges: np.ndarray, hidden: np.ndarray | None):
+                 positions: np.ndarray, ranges: np.ndarray, hidden: np.ndarray | None,
+                 tx_power: np.ndarray | None = None):
         nf = len(frames)
         self.tick, self.seed, self.radio, self.frames = tick, seed, radio, frames
         self.table, self.alive, self.positions, self.ranges, self.hidden = table, alive, positions, ranges, hidden
+        self.tx_power = tx_power  # per robot: transmit power on the shared channel, dBm (nan, None: the channel's)
         self.src = np.fromiter((f.src for f in frames), np.int64, nf)
         self.seq = np.fromiter((f.seq for f in frames), np.int64, nf)
         self.addressed = np.fromiter((f.dst is not None for f in frames), bool, nf)

@@ -189,6 +189,7 @@ class Medium:
         positions: np.ndarray,
         ranges: np.ndarray,
         hidden: np.ndarray | None = None,
+        tx_power: np.ndarray | None = None,
     ) -> Decision:
         """Receivers and drops of ``frames``, sent at ``tick``, for all (frame, receiver) pairs at once.
 
@@ -197,8 +198,9 @@ class Medium:
         sender's reach (its ``exclude`` list's copies marked ``overheard``, or left out with
         ``exclude = "filter"``), an addressed frame's is its destination; then the rules (world/linkrules.py)
         drop pairs in order, and a rule's drops are recorded in the order of its pairs (broadcasts first).
+        ``tx_power``: per robot, its transmit power on the shared channel (nan or None: the channel's).
         """
-        tx = Transmissions(tick, self.seed, self.config, frames, table, alive, positions, ranges, hidden)
+        tx = Transmissions(tick, self.seed, self.config, frames, table, alive, positions, ranges, hidden, tx_power)
         self._candidates(tx)
         out_f, out_d, out_c, out_o = [], [], [], []
         for rule in self.rules:

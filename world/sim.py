@@ -275,7 +275,7 @@ class Simulation:
             return {}, []
         r = self.robots
         t = self.tables
-        out = self.medium.decide_batch(self.tick, frames, t.reach, r.alive, r.pos, r.range, t.hidden)
+        out = self.medium.decide_batch(self.tick, frames, t.reach, r.alive, r.pos, r.range, t.hidden, r.tx_power)
         self.record.sent(frames)
         ok = out.cause < 0
         if not ok.all():

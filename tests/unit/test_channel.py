@@ -136,6 +136,24 @@ def test_capture_the_near_sender_survives_the_far_one():
     assert set(got.values()) == {"collision"}
 
 
+def test_a_louder_group_captures_at_equal_distance():
+    """Two groups 10 m from the receiver; the group's tx_power_dbm (20 dBm against the channel's 0) wins."""
+    raw = {"run": {"ticks": 1}, "radio": {"range": 100.0, "channel": {"shadowing_sigma_db": 0.0, "window_s": 1e-5}},
+           "robots": [{"positions": [[0, 0], [10, 0]]}, {"positions": [[-10, 0]], "tx_power_dbm": 20}]}
+    spec = resolve(raw, "loud.toml")
+    from world.sim import Simulation
+
+    power = Simulation(spec).robots.tx_power
+    assert np.isnan(power[:2]).all() and power[2] == 20
+    m = Medium(spec.radio, 1)
+    pos = np.array([[0.0, 0.0], [10.0, 0.0], [-10.0, 0.0]])
+    ranges = np.full(3, 100.0)
+    out = m.decide_batch(0, [Outgoing(1, 0, "D", 1, b"x" * BODY), Outgoing(2, 0, "D", 1, b"y" * BODY)],
+                         reach(pos, np.arange(3), ranges), np.ones(3, bool), pos, ranges, tx_power=power)
+    assert {int(out.src[f]): int(c) for f, c in zip(out.frame, out.cause, strict=True)} == {
+        1: DROP_CAUSES.index("collision"), 2: -1}
+
+
 def test_a_receiver_that_transmits_hears_nothing_meanwhile():
     pos = np.array([[0.0, 0.0], [5.0, 0.0]])
     got = run(medium(mac="aloha", shadowing_sigma_db=0.0, window_s=1e-5), 0,
@@ -270,3 +288,4 @@ def test_the_plain_python_draws_of_carrier_sense_equal_the_array_ones():
     a, b, d = np.array([1, 5, 9]), np.array([4, 2, 9]), np.array([3.3, 12.0, 40.0])
     assert m.power_dbm(7, a, b, d).tolist() == pytest.approx([m.link_dbm(7, int(x), int(y), float(z))
                                                               for x, y, z in zip(a, b, d, strict=True)], abs=1e-9)
+

@@ -89,6 +89,7 @@ GROUP = {
     "sensing_frame": (STRING, "global"), "range_noise": (NUMBER, 0.0), "bearing_noise": (NUMBER, 0.0),
     "heading_offset": ("number or range", None), "sensing_to": (STRING, "center"),
     "clock_offset": ("number or range", 0.0), "clock_drift": ("number or range", 0.0),
+    "tx_power_dbm": (NUMBER, None),  # with [radio.channel] (world/channel.py)
 }
 SECTIONS = {"run": RUN, "radio": RADIO, "world": WORLD}
 EVENT_ACTIONS = ["kill", "kill_fraction", "add", "cut", "restore", "partition", "heal", "loss", "move", "stop"]
