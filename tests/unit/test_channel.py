@@ -289,3 +289,13 @@ def test_the_plain_python_draws_of_carrier_sense_equal_the_array_ones():
     assert m.power_dbm(7, a, b, d).tolist() == pytest.approx([m.link_dbm(7, int(x), int(y), float(z))
                                                               for x, y, z in zip(a, b, d, strict=True)], abs=1e-9)
 
+
+
+def test_realtime_frames_go_out_at_their_senders_send_times():
+    """Realtime: the start is ``Outgoing.at``; 0.5 ms apart the two 1.6 ms frames collide at B, 10 ms apart not."""
+    radio = Radio.from_dict({"range": 1000.0, "channel": {"mac": "aloha", "shadowing_sigma_db": 0.0}})
+    for gap, fate in ((0.0005, "collision"), (0.01, "ok")):
+        m = Medium(radio, 1, dt=0.1, realtime=True)
+        got = run(m, 3, [Outgoing(0, 1, "D", 1, b"x" * BODY, at=100.0),
+                         Outgoing(2, 1, "D", 1, b"y" * BODY, at=100.0 + gap)], LINE)
+        assert set(got.values()) == {fate}, (gap, got)
