@@ -205,6 +205,9 @@ class Channel(_Spec):
                      "limit); frames still reach only robots within their sender's `range`") = UNSET
     shadowing_sigma_db: _ckey(number(ge=0), "shadowing_sigma_db", "σ of the log-normal shadowing X, dB, drawn per "
                               "link (the same both ways) from the run's seed") = UNSET
+    wall_loss_db: key(number(ge=0) | None, "with `radio.occlusion`: a link an obstacle blocks loses this many dB "
+                      "instead of being cut (an interferer out of its sender's `range` is taken as unobstructed)",
+                      default="none (a blocked link is dropped as `occluded`)") = None
     shadowing_ticks: key(Annotated[int, Meta(ge=1)], "a link's shadowing stays the same for this many ticks "
                          "(1: a new draw every tick; correlated in time above 1)") = 1
     noise_floor_dbm: _ckey(Number, "noise_floor_dbm", "thermal noise power at a receiver, dBm") = UNSET
@@ -305,6 +308,8 @@ class Radio(_Spec):
             raise SpecError("radio.latency_min_s", "must not exceed radio.latency_s")
         if self.channel is not None:
             self.channel.check()
+            if self.channel.wall_loss_db is not None and not self.occlusion:
+                raise SpecError("radio.channel.wall_loss_db", "needs radio.occlusion = true (the links walls block)")
         if self.loss_model != "gilbert":
             for name in GILBERT_KEYS:
                 if getattr(self, name) is not None:

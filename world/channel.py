@@ -17,7 +17,9 @@ The model behind three rules of the radio (world/linkrules.py), all deterministi
 * **received power** - log-distance path loss with log-normal shadowing:
   ``P = tx_power_dbm - l0_db - 10 n log10(max(d, d0) / d0) + sigma X`` (d in metres: length units times
   ``unit_m``), ``X ~ N(0, 1)`` drawn per link (unordered pair: reciprocal) and per block of ``shadowing_ticks``
-  ticks; no power at all beyond ``max_range`` (length units). A copy is dropped as ``below_sensitivity`` when
+  ticks; no power at all beyond ``max_range`` (length units); with ``wall_loss_db`` (and ``radio.occlusion``), a link
+  an obstacle blocks loses that many dB instead of being cut (an interferer out of its sender's range is taken
+  as unobstructed: the world knows walls only on links within range). A copy is dropped as ``below_sensitivity`` when
   ``P < sensitivity_dbm`` or when, with noise only, it would not be received (below);
 * **reception from SINR** - ``SINR = P / (N + I)`` with N the noise floor and I the sum of the powers at the
   receiver of every other frame on the air whose airtime overlaps the copy's (the whole overlap counts: a
@@ -127,7 +129,17 @@ class ChannelModel:
     def pair_power(self, tx) -> np.ndarray:
         """Each pair's received power at the send tick (``tx``: a ``Transmissions``)."""
         src = tx.pair_src
-        return self.power_dbm(tx.tick, src, tx.dst, tx.distances(), self.tx_dbm(tx, src))
+        p = self.power_dbm(tx.tick, src, tx.dst, tx.distances(), self.tx_dbm(tx, src))
+        return p - self.walls(tx, tx.where)
+
+    def walls(self, tx, where: np.ndarray) -> np.ndarray | float:
+        """``wall_loss_db`` for the links (indices into ``tx.table.nbrs``, -1: out of reach) an obstacle blocks."""
+        if self.config.wall_loss_db is None or tx.hidden is None or not len(where):
+            return 0.0
+        blocked = np.zeros(len(where), dtype=bool)
+        known = where >= 0
+        blocked[known] = tx.hidden[where[known]]
+        return self.config.wall_loss_db * blocked
 
     def tx_dbm(self, tx, senders: np.ndarray) -> np.ndarray | None:
         """Each of ``senders``' transmit power (its group's ``tx_power_dbm``, else the channel's); None: all alike."""
@@ -188,7 +200,10 @@ class ChannelModel:
         transmitting[pair[own]] = True
         pair, sg, r = pair[~own], sg[~own], r[~own]
         d = np.linalg.norm(tx.positions[r] - tx.positions[sg], axis=1)
-        total += np.bincount(pair, weights=mw(self.power_dbm(tx.tick, sg, r, d, self.tx_dbm(tx, sg))), minlength=k)
+        p = self.power_dbm(tx.tick, sg, r, d, self.tx_dbm(tx, sg))
+        if self.config.wall_loss_db is not None and tx.hidden is not None:
+            p = p - self.walls(tx, tx.table.find(sg, r))
+        total += np.bincount(pair, weights=mw(p), minlength=k)
         return total, transmitting
 
     # ------------------------------------------------------------ medium access
@@ -235,6 +250,9 @@ class ChannelModel:
         pos = tx.positions.tolist()
         power = self.tx_dbm(tx, np.arange(len(tx.positions)))
         power = None if power is None else power.tolist()
+        walled: set[tuple[int, int]] = set()  # (sender, receiver) links an obstacle blocks, with wall_loss_db
+        if c.wall_loss_db is not None and tx.hidden is not None:
+            walled = set(zip(tx.table.owners()[tx.hidden].tolist(), tx.table.nbrs[tx.hidden].tolist(), strict=True))
         senses: dict[tuple[int, int], bool] = {}  # (a, b): b senses a's frames
         threshold = float(c.cs_threshold_dbm)
         deadlines = deadline.tolist()
@@ -257,6 +275,8 @@ class ChannelModel:
                     if heard is None:
                         p = self.link_dbm(tx.tick, o, s, math.dist(pos[o], pos[s]),
                                           None if power is None else power[o])
+                        if pair in walled:
+                            p -= c.wall_loss_db
                         heard = senses[pair] = p >= threshold
                     if not heard:
                         continue

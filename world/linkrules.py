@@ -400,6 +400,8 @@ def pipeline(radio: Radio, seed: int, links: Severance, dt: float = 1.0, realtim
         builtin["pathloss"] = PathLoss(model)
         if radio.channel.mac != "none":
             builtin["sinr"] = Sinr(model)
+        if radio.channel.wall_loss_db is not None:  # walls attenuate instead of blocking
+            del builtin["occlusion"]
     ahead: dict[str | None, list[LinkRule]] = {}
     for i, spec in enumerate(radio.rules):
         rule, before = build_rule(spec, f"radio.rules[{i}]")

@@ -299,3 +299,24 @@ def test_realtime_frames_go_out_at_their_senders_send_times():
         got = run(m, 3, [Outgoing(0, 1, "D", 1, b"x" * BODY, at=100.0),
                          Outgoing(2, 1, "D", 1, b"y" * BODY, at=100.0 + gap)], LINE)
         assert set(got.values()) == {fate}, (gap, got)
+
+
+@pytest.mark.parametrize(("wall_db", "fate"), [(None, "occluded"), (10.0, "ok"), (30.0, "below_sensitivity")])
+def test_a_wall_attenuates_instead_of_blocking_with_wall_loss_db(wall_db, fate):
+    """10 m apart, -70 dBm in the open; behind a wall of 10 dB -80 dBm (heard), of 30 dB -100 dBm (not)."""
+    channel = {"mac": "aloha", "shadowing_sigma_db": 0.0}
+    if wall_db is not None:
+        channel["wall_loss_db"] = wall_db
+    m = Medium(Radio.from_dict({"range": 100.0, "occlusion": True, "channel": channel}), 1)
+    pos = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]])
+    frames = [Outgoing(0, None, "B", 1, b"x" * BODY)]
+    in_range = {0: np.array([1, 2]), 1: np.array([0, 2]), 2: np.array([0, 1])}
+    occluded = {0: (np.array([2]), np.array([1]))}  # a wall between 0 and 1 only
+    deliveries, drops, _ = m.decide(0, frames, in_range, np.ones(3, bool), pos, np.full(3, 100.0), occluded)
+    got = {d: c for _s, _q, d, _k, c in drops} | {d: "ok" for d, *_ in deliveries}
+    assert got == {1: fate, 2: "ok"}
+
+
+def test_wall_loss_needs_occlusion():
+    with pytest.raises(SpecError, match="needs radio.occlusion = true"):
+        Radio.from_dict({"channel": {"wall_loss_db": 10}})
