@@ -21,8 +21,8 @@ from msgspec import inspect as mi
 from transport import scenario as model
 
 DOC = Path("docs") / "scenarios.md"  # in a checkout of the project (the docs are not installed)
-TABLES: dict[str, Any] = {"run": model.Run, "radio": model.Radio, "world": model.World, "robots": model.RobotGroup,
-                          "events": model.Event}
+TABLES: dict[str, Any] = {"run": model.Run, "radio": model.Radio, "channel": model.Channel, "world": model.World,
+                          "robots": model.RobotGroup, "events": model.Event}
 _BLOCK = re.compile(r"(<!-- keys: (\w+) -->\n)(.*?)(<!-- end keys -->)", re.DOTALL)
 
 

@@ -163,7 +163,8 @@ def test_mcap_holds_what_the_trace_holds(tmp_path, capsys):
     assert [c["delivered"] for c in counts] == [0, 1, 0, 0, 0]
     assert counts[-1]["total"] == {"sent": 2, "delivered": 1, "overheard": 1, "malformed": 1,
                                    "dropped": {"range": 0, "loss": 1, "cut": 0, "occluded": 0, "bandwidth": 0,
-                                               "dead": 1}}
+                                               "dead": 1, "deferred_too_long": 0, "below_sensitivity": 0,
+                                               "collision": 0}}
     frames = got["/radio/frames"][1][1].entities[0].lines
     assert [list(line.indices) for line in frames] == [[0, 1], [0, 2], [0, 2]]  # delivered, overheard, lost
     assert [p.x for p in frames[0].points] == [0.0, 1.0, 2.0]  # the robots' points, which the indices name

@@ -29,6 +29,7 @@ SCENARIO_PINS = {
     "biconnectivity-check.toml": "336f63f143200f834e4fab2102420c15",
     "cbaa.toml": "da5540292cc58ef9571fac36f37345e6",
     "flooding.toml": "e69653011254db0fc4f743d59fa56068",  # issue 23: overheard copies
+    "flooding-channel.toml": "27825d412a426fe5848a77e09a12f546",  # issue 38: a new scenario (the shared channel)
     "lambda2.toml": "a4c95f6c6a3b3fce0b233ecc21cb8ea8",  # issue 17
     "leader-follower-experiment.toml": "e703cfb26febea7a2012d5627700558e",  # issue 20
     "leader-follower.toml": "424c80217845bb0ce2d9e48db7d91b29",  # issue 20

@@ -148,6 +148,105 @@ class Run(_Spec):
         return ("full" if self.trace else "off") if isinstance(self.trace, bool) else self.trace
 
 
+# ----------------------------------------------------------------- [radio.channel]
+# The values a channel key takes when the table does not give it: generic (a 2.4 GHz IEEE 802.15.4-like radio
+# indoors) and the DARPA SubT communication model's defaults (osrf/subt: subt_rf_interface's rf_configuration and
+# subt_communication_model's radio_configuration).
+CHANNEL_DEFAULTS: dict[str, dict[str, Any]] = {
+    "generic": {"bitrate_bps": 250_000, "preamble_s": 160e-6, "overhead_bytes": 24, "tx_power_dbm": 0.0,
+                "path_loss_exponent": 3.0, "l0_db": 40.0, "max_range": None, "shadowing_sigma_db": 4.0,
+                "noise_floor_dbm": -100.0, "sensitivity_dbm": -95.0, "reception": "step", "sinr_threshold_db": 6.0},
+    "subt": {"bitrate_bps": 54_000_000, "preamble_s": 0.0, "overhead_bytes": 0, "tx_power_dbm": 27.0,
+             "path_loss_exponent": 2.5, "l0_db": 40.0, "max_range": 50.0, "shadowing_sigma_db": 10.0,
+             "noise_floor_dbm": -90.0, "sensitivity_dbm": -90.0, "reception": "qpsk", "sinr_threshold_db": 6.0},
+}
+CSMA_KEYS = ("cs_threshold_dbm", "backoff_slots", "max_attempts")
+
+
+def _preset_default(name: str) -> str:
+    generic, subt = CHANNEL_DEFAULTS["generic"][name], CHANNEL_DEFAULTS["subt"][name]
+
+    def word(v: Any) -> str:
+        return "none" if v is None else f"`{v!r}`" if not isinstance(v, str) else f'`"{v}"`'
+    return f"{word(generic)} (`subt`: {word(subt)})"
+
+
+def _ckey(typ: Any, name: str, meaning: str, **kw) -> Any:
+    """A channel key whose default comes from the preset (``CHANNEL_DEFAULTS``)."""
+    return key(typ | UnsetType, meaning, default=_preset_default(name), **kw)
+
+
+class Channel(_Spec):
+    """``[radio.channel]``: a shared medium - airtime, contention, interference and path loss (docs/channel.md).
+
+    Keys not given take the preset's value (``CHANNEL_DEFAULTS``); ``check`` fills them in.
+    """
+
+    preset: key(Literal["generic", "subt"], "the values of the keys not given: `generic` (a 2.4 GHz IEEE 802.15.4-like "
+                "radio indoors) or `subt` (the DARPA SubT communication model's defaults: max range 50, path-loss "
+                "exponent 2.5, L0 40 dB at 1 m, σ 10 dB, 27 dBm, noise floor −90 dBm, QPSK, 54 Mbit/s)") = "generic"
+    mac: key(Literal["none", "aloha", "slotted", "csma"], "medium access: `none` (frames never interfere: path loss "
+             "and noise only), `aloha` (pure ALOHA: send at once), `slotted` (slotted ALOHA: send at the next slot "
+             "boundary) or `csma` (carrier sense with random backoff; a frame still deferred at the end of its tick "
+             "is dropped as `deferred_too_long`)") = "aloha"
+    bitrate_bps: _ckey(Positive, "bitrate_bps", "bits per second: a frame's airtime is `preamble_s` + "
+                       "(body bytes + `overhead_bytes`)·8/`bitrate_bps`") = UNSET
+    preamble_s: _ckey(number(ge=0), "preamble_s", "seconds of preamble before every frame") = UNSET
+    overhead_bytes: _ckey(Annotated[int, Meta(ge=0)], "overhead_bytes", "header and trailer bytes the radio adds to "
+                          "every frame body") = UNSET
+    tx_power_dbm: _ckey(Number, "tx_power_dbm", "transmit power, dBm, of every robot whose group "
+                        "does not set its own `tx_power_dbm`") = UNSET
+    path_loss_exponent: _ckey(Positive, "path_loss_exponent", "n of the log-distance path loss: the received power "
+                              "is `tx_power_dbm` − `l0_db` − 10·n·log10(d/`d0`) + X, X ~ N(0, σ²)") = UNSET
+    l0_db: _ckey(Number, "l0_db", "path loss at the reference distance `d0`, dB") = UNSET
+    d0: key(Length, "reference distance of the path loss, metres; closer pairs get the power at `d0`") = 1.0
+    unit_m: key(Positive, "metres per length unit of the scenario (positions and ranges)") = 1.0
+    max_range: _ckey(Length | None, "max_range", "length units beyond which no power arrives at all (SubT's hard "
+                     "limit); frames still reach only robots within their sender's `range`") = UNSET
+    shadowing_sigma_db: _ckey(number(ge=0), "shadowing_sigma_db", "σ of the log-normal shadowing X, dB, drawn per "
+                              "link (the same both ways) from the run's seed") = UNSET
+    wall_loss_db: key(number(ge=0) | None, "with `radio.occlusion`: a link an obstacle blocks loses this many dB "
+                      "instead of being cut (an interferer out of its sender's `range` is taken as unobstructed)",
+                      default="none (a blocked link is dropped as `occluded`)") = None
+    shadowing_ticks: key(Annotated[int, Meta(ge=1)], "a link's shadowing stays the same for this many ticks "
+                         "(1: a new draw every tick; correlated in time above 1)") = 1
+    noise_floor_dbm: _ckey(Number, "noise_floor_dbm", "thermal noise power at a receiver, dBm") = UNSET
+    sensitivity_dbm: _ckey(Number, "sensitivity_dbm", "a copy received below this power is dropped as "
+                           "`below_sensitivity`") = UNSET
+    reception: _ckey(Literal["step", "qpsk"], "reception", "`step`: a copy is received when its SINR over its whole "
+                     "airtime reaches `sinr_threshold_db`; `qpsk`: with probability (1 − ½·erfc(√SINR))^bits "
+                     "(Gray-coded QPSK, Eb/N0 taken as the SINR, bits the whole frame's)") = UNSET
+    sinr_threshold_db: _ckey(Number, "sinr_threshold_db", "`step` reception: the least SINR, dB, a copy needs (a "
+                             "stronger frame survives a weaker overlapping one by this margin: capture)") = UNSET
+    window_s: key(Positive | None, "lockstep: each frame's send time is drawn uniformly within the first `window_s` "
+                  "seconds of its tick (realtime: the sender's own send time)", default="`run.dt`") = None
+    aloha_slot_s: key(Positive | None, "`slotted`: the slot length, seconds", default="the airtime of the tick's "
+                      "longest frame") = None
+    slot_s: key(Positive, "`csma`: the backoff slot, seconds, and the time a radio needs to sense a frame that "
+                "started") = 20e-6
+    cs_threshold_dbm: key(Number | None, "`csma`: a radio senses the channel busy when a frame on the air reaches it "
+                          "at this power or more", default="`sensitivity_dbm`") = None
+    backoff_slots: key(Annotated[int, Meta(ge=1, le=65536)], "`csma`: the contention window: after a busy "
+                       "sense a frame waits until the channel is free plus a backoff drawn in [0, `backoff_slots`) "
+                       "slots") = 16
+    max_attempts: key(Annotated[int, Meta(ge=1, le=1000)], "`csma`: a frame that finds the channel busy this many "
+                      "times is dropped as `deferred_too_long` (as is one that would start after its tick)") = 32
+
+    def check(self, where: str = "radio.channel") -> None:
+        """Fill the keys not given from the preset; the CSMA and slotted keys go with their MAC only."""
+        for name, value in CHANNEL_DEFAULTS[self.preset].items():
+            if getattr(self, name) is UNSET:
+                setattr(self, name, value)
+        if self.mac != "csma":
+            for name in ("cs_threshold_dbm",):
+                if getattr(self, name) is not None:
+                    raise SpecError(f"{where}.{name}", 'applies only with mac = "csma"')
+        if self.mac != "slotted" and self.aloha_slot_s is not None:
+            raise SpecError(f"{where}.aloha_slot_s", 'applies only with mac = "slotted"')
+        if self.cs_threshold_dbm is None and self.mac == "csma":
+            self.cs_threshold_dbm = self.sensitivity_dbm
+
+
 # ----------------------------------------------------------------- [radio]
 GILBERT_KEYS = ("p_gb", "p_bg", "loss_good", "loss_bad")
 
@@ -192,9 +291,12 @@ class Radio(_Spec):
     rules: key(Annotated[list[dict[str, Any]], Meta(max_length=MAX_RADIO_RULES)],
                "more rules of the radio, each a table: `use` = the name of a rule registered in the entry-point "
                "group `swarmactors.radio_rules`, `before` = the built-in rule (`dead`, `range`, `occlusion`, "
-               "`bandwidth`, `cut`, `loss`) it runs before (default: after them all), and the rule's own keys "
-               "([Radio rules](radio-rules.md))", default="none", shape="array of tables") = msgspec.field(
-        default_factory=list)
+               "`bandwidth`, `cut`, `mac`, `pathloss`, `sinr`, `loss`) it runs before (default: after them all), "
+               "and the rule's own keys ([Radio rules](radio-rules.md))", default="none",
+               shape="array of tables") = msgspec.field(default_factory=list)
+    channel: key(Channel | None, "a shared medium: airtime, contention (ALOHA, slotted ALOHA, CSMA), interference "
+                 "(SINR, capture) and log-distance path loss with shadowing; its keys are below "
+                 "([The shared channel](channel.md))", default="none (off)", shape="table") = None
 
     def check(self) -> None:
         """Check the rules between radio keys; fill the Gilbert-Elliott defaults.
@@ -204,6 +306,10 @@ class Radio(_Spec):
         """
         if self.latency_min_s is not None and self.latency_min_s > self.latency_s:
             raise SpecError("radio.latency_min_s", "must not exceed radio.latency_s")
+        if self.channel is not None:
+            self.channel.check()
+            if self.channel.wall_loss_db is not None and not self.occlusion:
+                raise SpecError("radio.channel.wall_loss_db", "needs radio.occlusion = true (the links walls block)")
         if self.loss_model != "gilbert":
             for name in GILBERT_KEYS:
                 if getattr(self, name) is not None:
@@ -417,11 +523,14 @@ ROBOT_KEYS: list[tuple[str, Any, Any]] = [
                          "seed"), 0.0),
     ("clock_drift", key(number(ge=-MAX_DRIFT_PPM, le=MAX_DRIFT_PPM) | Interval, "drift of the robot's own clock, ppm; "
                         "a range [lo, hi] (within the same limits) is drawn per robot from the run's seed"), 0.0),
+    ("tx_power_dbm", key(Number | None, "these robots' transmit power, dBm, on the shared channel "
+                         "(`[radio.channel]`; without it the key has no effect)",
+                         default="`radio.channel.tx_power_dbm`"), None),
 ]
 ROBOT_FIELDS = tuple(name for name, _, _ in ROBOT_KEYS)
 # a robot spec's JSON leaves these out while they are unset (None) or, for the situated keys, at their default
 SPARSE = ("speed", "turn_rate", "altitude", "climb_rate", "sensing_frame", "range_noise", "bearing_noise",
-          "heading_offset", "sensing_to", "clock_offset", "clock_drift")
+          "heading_offset", "sensing_to", "clock_offset", "clock_drift", "tx_power_dbm")
 RANGE_LIMITS = {"clock_offset": MAX_CLOCK_OFFSET_S, "clock_drift": MAX_DRIFT_PPM}  # [lo, hi] values within +-limit
 
 PLACEMENT_KEYS: list[tuple[str, Any, Any]] = [

@@ -8,7 +8,8 @@ once: a lockstep tick's every transmission, a realtime delivery window's.
 
 The built-in rules, in their order (``PIPELINE``): ``dead`` (an addressed frame to a robot that is dead or does
 not exist), ``range`` (an addressed frame to a robot out of its sender's reach), ``occlusion``
-(``radio.occlusion``), ``bandwidth`` (``radio.bandwidth``), ``cut`` (cuts and partitions) and ``loss``
+(``radio.occlusion``), ``bandwidth`` (``radio.bandwidth``), ``cut`` (cuts and partitions), the shared channel's
+``mac``, ``pathloss`` and ``sinr`` (only with ``[radio.channel]``, world/channel.py) and ``loss``
 (``radio.loss``, ``radio.model``, ``radio.loss_model``). A scenario adds its own with ``[[radio.rules]]``
 (``use`` = the name of a rule registered in the entry-point group ``swarmactors.radio_rules``, ``before`` = a
 built-in rule to run before, by default after them all, and the rule's own keys). Names are looked up among
@@ -32,6 +33,7 @@ from transport.scenario import Radio
 from transport.severance import Severance
 from world import rng
 from world.bursts import GilbertElliott
+from world.channel import ChannelModel
 from world.sensing import Reach
 
 GROUP = "swarmactors.radio_rules"  # entry points of third-party rules: name = "package.module:RuleClass"
@@ -46,14 +48,18 @@ class Transmissions:
     -1 when the receiver is not in the sender's reach), ``pair_src`` and ``distances()``. The world at the send
     tick: ``table`` (every alive robot's reach, world/sensing.py), ``alive``, ``positions``, ``ranges`` (radio
     range per robot), ``hidden`` (aligned with ``table.nbrs``: links an obstacle blocks; None: none), ``radio``
-    (the scenario's ``[radio]``, as the events left it) and ``seed``.
+    (the scenario's ``[radio]``, as the events left it), ``seed`` and ``tx_power`` (per robot, dBm, for the shared
+    channel; nan or None: the channel's own). ``shared``: a dict the rules of one decision
+    may leave per-frame results in for the rules after them (the channel's schedule of the frames).
     """
 
     def __init__(self, tick: int, seed: int, radio: Radio, frames: list, table: Reach, alive: np.ndarray,
-                 positions: np.ndarray, ranges: np.ndarray, hidden: np.ndarray | None):
+                 positions: np.ndarray, ranges: np.ndarray, hidden: np.ndarray | None,
+                 tx_power: np.ndarray | None = None):
         nf = len(frames)
         self.tick, self.seed, self.radio, self.frames = tick, seed, radio, frames
         self.table, self.alive, self.positions, self.ranges, self.hidden = table, alive, positions, ranges, hidden
+        self.tx_power = tx_power  # per robot: transmit power on the shared channel, dBm (nan, None: the channel's)
         self.src = np.fromiter((f.src for f in frames), np.int64, nf)
         self.seq = np.fromiter((f.seq for f in frames), np.int64, nf)
         self.addressed = np.fromiter((f.dst is not None for f in frames), bool, nf)
@@ -61,6 +67,7 @@ class Transmissions:
         empty = np.zeros(0, dtype=np.int64)
         self.frame, self.dst, self.where = empty, empty, empty
         self.overheard = np.zeros(0, dtype=bool)
+        self.shared: dict[str, Any] = {}  # what one rule works out for the next ones of this decision (per frame)
 
     def __len__(self) -> int:
         return len(self.frame)
@@ -247,8 +254,65 @@ class Loss(LinkRule):
         return None
 
 
-BUILTIN: dict[str, type[LinkRule]] = {r.name: r for r in (Range, Loss, Cut, Occlusion, Bandwidth, Dead)}
-PIPELINE = ("dead", "range", "occlusion", "bandwidth", "cut", "loss")  # the order the medium runs them in
+class Mac(LinkRule):
+    """``radio.channel``: medium access (world/channel.py); a frame deferred past its tick loses every copy.
+
+    Its cause is ``deferred_too_long``; the frames' places on the air wait in ``tx.shared`` for ``sinr``.
+    """
+
+    name = "mac"
+    cause = "deferred_too_long"
+
+    def __init__(self, model: ChannelModel):
+        super().__init__()
+        self.model = model
+
+    def apply(self, tx):
+        on_air = self.model.schedule(tx).on_air
+        if not len(tx) or on_air.all():
+            return None
+        return ~on_air[tx.frame]
+
+
+class PathLoss(LinkRule):
+    """``radio.channel``: a copy too weak to be received is dropped as ``below_sensitivity``.
+
+    Too weak: its received power is below the sensitivity, or noise alone would corrupt it (world/channel.py).
+    """
+
+    name = "pathloss"
+    cause = "below_sensitivity"
+
+    def __init__(self, model: ChannelModel):
+        super().__init__()
+        self.model = model
+
+    def apply(self, tx):
+        return ~self.model.heard_alone(tx) if len(tx) else None
+
+
+class Sinr(LinkRule):
+    """``radio.channel`` with a MAC: a copy lost to the frames overlapping its airtime is dropped as ``collision``.
+
+    Lost: its SINR fails the reception rule, or its receiver transmits meanwhile (half duplex; world/channel.py).
+    """
+
+    name = "sinr"
+    cause = "collision"
+
+    def __init__(self, model: ChannelModel):
+        super().__init__()
+        self.model = model
+
+    def apply(self, tx):
+        return ~self.model.heard_among(tx) if len(tx) else None
+
+
+BUILTIN: dict[str, type[LinkRule]] = {r.name: r for r in (Range, Loss, Cut, Occlusion, Bandwidth, Dead, Mac, PathLoss,
+                                                          Sinr)}
+# the order the medium runs them in; mac, pathloss and sinr only with radio.channel (sinr: with a MAC)
+PIPELINE = ("dead", "range", "occlusion", "bandwidth", "cut", "mac", "pathloss", "sinr", "loss")
+CHANNEL_RULES = ("mac", "pathloss", "sinr")
 MALFORMED = "malformed"  # the world's own cause: a frame it could not read (never reaches the radio)
 DROP_CAUSES: tuple[str, ...] = (*(r.cause for r in BUILTIN.values()), MALFORMED)  # the built-in causes
 
@@ -321,14 +385,23 @@ def build_rule(spec: dict, where: str = "radio.rules[0]") -> tuple[LinkRule, str
     return cls(config), before
 
 
-def pipeline(radio: Radio, seed: int, links: Severance) -> list[LinkRule]:
+def pipeline(radio: Radio, seed: int, links: Severance, dt: float = 1.0, realtime: bool = False) -> list[LinkRule]:
     """The medium's rules in order.
 
-    The built-in ones, with each ``[[radio.rules]]`` rule before its ``before`` (or, without one, after them all,
-    in the order given).
+    The built-in ones (the channel's with ``radio.channel`` only; ``dt`` and ``realtime``: the run's tick length
+    and clock, which the channel needs), with each ``[[radio.rules]]`` rule before its ``before`` (or, without
+    one, after them all, in the order given).
     """
     builtin: dict[str, LinkRule] = {"dead": Dead(), "range": Range(), "occlusion": Occlusion(),
                                     "bandwidth": Bandwidth(), "cut": Cut(links), "loss": Loss(radio, seed)}
+    if radio.channel is not None:
+        model = ChannelModel(radio.channel, seed, dt, realtime)
+        builtin["mac"] = Mac(model)
+        builtin["pathloss"] = PathLoss(model)
+        if radio.channel.mac != "none":
+            builtin["sinr"] = Sinr(model)
+        if radio.channel.wall_loss_db is not None:  # walls attenuate instead of blocking
+            del builtin["occlusion"]
     ahead: dict[str | None, list[LinkRule]] = {}
     for i, spec in enumerate(radio.rules):
         rule, before = build_rule(spec, f"radio.rules[{i}]")
@@ -336,7 +409,8 @@ def pipeline(radio: Radio, seed: int, links: Severance) -> list[LinkRule]:
     rules: list[LinkRule] = []
     for name in PIPELINE:
         rules.extend(ahead.get(name, ()))
-        rules.append(builtin[name])
+        if name in builtin:
+            rules.append(builtin[name])
     rules.extend(ahead.get(None, ()))
     return rules
 

@@ -10,8 +10,9 @@ once (a lockstep tick's every frame; a realtime delivery window's), with numpy:
   that arrives as *overheard* (trace ``ovh``, never handed to the behaviour); ``radio.exclude = "filter"`` is
   the older rule where excluded robots are no candidates at all;
 * rules - world/linkrules.py: each drops pairs under its cause, in order: ``dead`` and ``range`` (addressed
-  frames), ``occlusion``, ``bandwidth``, ``cut`` (cuts and partitions), ``loss`` (Bernoulli, the distance
-  model of Swarm Relays Sec. III-A, Gilbert-Elliott bursts), then any a scenario adds (``[[radio.rules]]``);
+  frames), ``occlusion``, ``bandwidth``, ``cut`` (cuts and partitions), with ``[radio.channel]`` the shared
+  channel's ``mac``, ``pathloss`` and ``sinr`` (world/channel.py), ``loss`` (Bernoulli, the distance model of
+  Swarm Relays Sec. III-A, Gilbert-Elliott bursts), then any a scenario adds (``[[radio.rules]]``);
 * latency - lockstep: exactly ``latency`` ticks; realtime: drawn uniformly in [latency_min_s, latency_s]
   seconds per (frame, receiver).
 
@@ -94,10 +95,11 @@ def _pairs(indptr: np.ndarray, rows: np.ndarray, frame_ids: np.ndarray) -> tuple
 class Medium:
     """Decides receivers and drops for the frames of one tick."""
 
-    def __init__(self, config: Radio, seed: int):
+    def __init__(self, config: Radio, seed: int, dt: float = 1.0, realtime: bool = False):
+        """``dt`` and ``realtime``: the run's tick length (seconds) and clock, for the shared channel."""
         self.config = config  # the scenario's [radio] (transport.scenario.Radio); set_loss replaces it
         self.seed = seed
-        self.rules = pipeline(config, seed, Severance())  # world/linkrules.py, in order
+        self.rules = pipeline(config, seed, Severance(), dt, realtime)  # world/linkrules.py, in order
         self._cut = self.rule("cut")  # world.linkrules.Cut
 
     def rule(self, name: str) -> LinkRule:
@@ -187,6 +189,7 @@ class Medium:
         positions: np.ndarray,
         ranges: np.ndarray,
         hidden: np.ndarray | None = None,
+        tx_power: np.ndarray | None = None,
     ) -> Decision:
         """Receivers and drops of ``frames``, sent at ``tick``, for all (frame, receiver) pairs at once.
 
@@ -195,8 +198,9 @@ class Medium:
         sender's reach (its ``exclude`` list's copies marked ``overheard``, or left out with
         ``exclude = "filter"``), an addressed frame's is its destination; then the rules (world/linkrules.py)
         drop pairs in order, and a rule's drops are recorded in the order of its pairs (broadcasts first).
+        ``tx_power``: per robot, its transmit power on the shared channel (nan or None: the channel's).
         """
-        tx = Transmissions(tick, self.seed, self.config, frames, table, alive, positions, ranges, hidden)
+        tx = Transmissions(tick, self.seed, self.config, frames, table, alive, positions, ranges, hidden, tx_power)
         self._candidates(tx)
         out_f, out_d, out_c, out_o = [], [], [], []
         for rule in self.rules:

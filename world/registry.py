@@ -52,6 +52,7 @@ class Robots:
         self.alt_hi = np.zeros(0)
         self.climb = np.zeros(0)  # a flying robot's vertical speed cap
         self.rays = np.zeros(0, dtype=np.int64)  # obstacle range rays
+        self.tx_power = np.zeros(0)  # the shared channel's transmit power, dBm (nan: the channel's)
         self.spec: list[RobotSpec] = []  # robot i's resolved spec
         self.host: list[str | None] = []
         self.deaths: dict[int, Death] = {}
@@ -87,6 +88,8 @@ class Robots:
         self.alt_hi = np.concatenate([self.alt_hi, col(a[1] for a in alt)])
         self.climb = np.concatenate([self.climb, col(s.climb_cap for s in specs)])
         self.rays = np.concatenate([self.rays, [s.obstacle_rays for s in specs]]).astype(np.int64)
+        self.tx_power = np.concatenate([self.tx_power, col(np.nan if s.tx_power_dbm is None else s.tx_power_dbm
+                                                           for s in specs)])
         for s in specs:
             self.spec.append(s)
             self.host.append(None)

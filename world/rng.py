@@ -19,6 +19,10 @@ NOISE = 5
 SITUATED = 6  # per-robot draws: heading offset, clock offset and drift (world/situated.py)
 BEARING = 7  # range and bearing noise of situated sensing
 RAB = 8  # range and bearing noise of received frames
+SHADOW = 9  # the shared channel (world/channel.py): log-normal shadowing per link
+START = 10  # a frame's send time within its tick
+BACKOFF = 11  # CSMA backoff slots
+RECEPTION = 12  # a copy's reception draw against its packet reception ratio
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -45,3 +49,4 @@ def hash64(seed: int, *fields) -> np.ndarray:
 def uniform(seed: int, *fields) -> np.ndarray:
     """Uniform floats in [0, 1) keyed on ``(seed, *fields)``."""
     return (hash64(seed, *fields) >> np.uint64(11)).astype(np.float64) * (1.0 / (1 << 53))
+

@@ -77,7 +77,7 @@ class Simulation:
         self.bounds = np.array(wspec.bounds, dtype=float) if wspec.bounds else None
         self.objects: dict[str, list[float]] = {o.name: list(map(float, o.pos)) for o in wspec.objects}
         self.radio = spec.radio
-        self.medium = Medium(self.radio, self.seed)
+        self.medium = Medium(self.radio, self.seed, self.dt, self.realtime)
         self.tick = 0
         self.time = (time or wall_time) if self.realtime else (lambda: float(self.tick))
         self.now = 0.0  # the clock's time of this tick (``begin``; realtime: of the last ``transmit``)
@@ -275,7 +275,7 @@ class Simulation:
             return {}, []
         r = self.robots
         t = self.tables
-        out = self.medium.decide_batch(self.tick, frames, t.reach, r.alive, r.pos, r.range, t.hidden)
+        out = self.medium.decide_batch(self.tick, frames, t.reach, r.alive, r.pos, r.range, t.hidden, r.tx_power)
         self.record.sent(frames)
         ok = out.cause < 0
         if not ok.all():

@@ -92,7 +92,8 @@ def test_a_robot_spec_as_data_leaves_out_unset_sparse_keys():
 
 
 @pytest.mark.parametrize("raw,key,text", [
-    (base(radio={"latncy": 2}), "radio.latncy", "unknown key; did you mean 'latency'? (known: bandwidth, delta,"),
+    (base(radio={"latncy": 2}), "radio.latncy",
+     "unknown key; did you mean 'latency'? (known: bandwidth, channel, delta,"),
     (base(robots=[{"count": 1, "rnge": 2}]), "robots[0].rnge", "did you mean 'range'?"),
     (base(physics={}), "physics", "unknown section (known: checks, events, radio, robots, run, world)"),
     (base(events=[{"at": 1, "kil": [0]}]), "events[0].kil", "unknown event; did you mean 'kill'? (known: kill,"),

@@ -76,6 +76,7 @@ RADIO = {
     "loss_good": (NUMBER, None), "loss_bad": (NUMBER, None), "rab": (BOOLEAN, False),
     "exclude": (STRING, "overheard"),  # issue 23: excluded robots overhear broadcasts
     "rules": ("list", []),  # more radio rules (world/linkrules.py)
+    "channel": ("table", None),  # the shared channel (world/channel.py): off
 }
 WORLD = {"dims": (INTEGER, 2), "bounds": ("list", None), "objects": ("list", []), "max_robots": (INTEGER, 10_000),
          "obstacles": ("list", []), "map": ("table", None), "blocking": (BOOLEAN, False)}
@@ -88,6 +89,7 @@ GROUP = {
     "sensing_frame": (STRING, "global"), "range_noise": (NUMBER, 0.0), "bearing_noise": (NUMBER, 0.0),
     "heading_offset": ("number or range", None), "sensing_to": (STRING, "center"),
     "clock_offset": ("number or range", 0.0), "clock_drift": ("number or range", 0.0),
+    "tx_power_dbm": (NUMBER, None),  # with [radio.channel] (world/channel.py)
 }
 SECTIONS = {"run": RUN, "radio": RADIO, "world": WORLD}
 EVENT_ACTIONS = ["kill", "kill_fraction", "add", "cut", "restore", "partition", "heal", "loss", "move", "stop"]
