@@ -98,7 +98,8 @@ def random_prisms(rng, n, flat):
         c = rng.uniform(1, 9, 2)
         w, h = rng.uniform(0.3, 2.0, 2)
         xy = [[c[0] - w, c[1] - h], [c[0] + w, c[1] - h], [c[0] + w, c[1] + h], [c[0] - w, c[1] + h]]
-        z = None if flat else sorted(rng.uniform(0, 3, 2).round(3).tolist())
+        lo, hi = sorted(rng.uniform(0, 3, 2).round(3).tolist())
+        z = None if flat else [lo, max(hi, lo + 0.001)]  # z0 < z1, as a scenario must give them
         out.append({"xy": xy, "z": z})
     return out
 
