@@ -165,14 +165,28 @@ def build_parser() -> argparse.ArgumentParser:
     certs = sub.add_parser("cluster-certs", help="create the CA and the certificate of a Dask cluster with TLS")
     certs.add_argument("directory", type=Path, help="where ca.pem, cluster.pem and cluster.key go (kept if there)")
     certs.add_argument("--name", action="append", default=[], help="another name the certificate is valid for")
-    for name in sorted(available(COMMANDS)):  # the families' own subcommands (TSC's schedule, ...)
-        family_command(name).add_parser(sub)
+    _family_commands(sub)  # the families' own subcommands (TSC's schedule, ...)
     export_cli.add_parser(sub)  # swarmactors export RUN
     newproject.add_parser(sub)  # swarmactors new NAME
     schema = sub.add_parser("schema", help="print the JSON Schema of a scenario file, for editors that complete and "
                                            "check TOML (docs/scenarios.md)")
     schema.add_argument("--out", type=Path, help="write it to this file instead of standard output")
     return p
+
+
+def _family_commands(sub) -> None:
+    """Add each family's subcommands; one that cannot load, or takes a name already used, is reported and skipped."""
+    from swarmactors.plugins import family_of
+
+    for name in sorted(available(COMMANDS)):
+        if name in sub.choices:
+            print(f"warning: family {family_of(COMMANDS, name)!r}: subcommand {name!r} is already a swarmactors "
+                  "command; skipped", file=sys.stderr)
+            continue
+        try:
+            family_command(name).add_parser(sub)
+        except Exception as exc:  # a broken family costs its own subcommand, never the command line
+            print(f"warning: {_one_line(exc)}; subcommand {name!r} skipped", file=sys.stderr)
 
 
 def _cluster_certs_arg(sp) -> None:
@@ -274,7 +288,7 @@ def _main(args) -> int:
             return _robots(args)  # bad credentials files raise ValueError: exit 2
         if args.command == "check":
             return _check(args, err)
-        if args.command in available(COMMANDS):
+        if args.command in available(COMMANDS) and getattr(args, "handler", None) is not None:
             return family_command(args.command).command(args)  # exit codes as the family's module documents
         if args.command == "schema":
             from swarmactors.schema import json_schema
@@ -632,21 +646,20 @@ def scenario_family(path: Path) -> str:
     """The protocol family whose behaviours a scenario runs (``-`` for none, ``a+b`` for several)."""
     import tomllib
 
-    from swarmactors.plugins import available
+    from swarmactors.plugins import families as registered
+    from swarmactors.plugins import family_of
 
     try:
         raw = tomllib.loads(path.read_text(errors="replace"))
     except (OSError, ValueError):
         return "?"
-    behaviors = available(BEHAVIORS)  # name -> "module:attr", nothing imported
-    families = {ref.partition(":")[0].rpartition(".")[0]: name
-                for name, ref in available("swarmactors.families").items()}
+    by_target = {target: fam.name for fam in registered().values() for target in fam.behaviors.values()}
     found: list[str] = []
     for group in raw.get("robots", []) if isinstance(raw.get("robots"), list) else []:
         for spec in group.get("behaviors", []) if isinstance(group, dict) else []:
             use = spec.get("use", "") if isinstance(spec, dict) else ""
-            ref = behaviors.get(use, use)
-            family = families.get(ref.partition(":")[0].rpartition(".")[0])
+            family = family_of(BEHAVIORS, use) if isinstance(use, str) else None
+            family = family or by_target.get(use)  # nothing imported
             if family and family not in found:
                 found.append(family)
     return "+".join(found) or "-"
@@ -665,7 +678,7 @@ def _scenario_description(path: Path) -> str:
 
 def _list(what: str) -> int:
     """``swarmactors list behaviors|checks|families|scenarios``: names and one-line descriptions."""
-    from swarmactors.plugins import CHECKS, PluginError, available
+    from swarmactors.plugins import CHECKS, FAMILIES, PluginError, available, broken_families, families, family_of
 
     rows: list[tuple[str, ...]] = []
     if what == "scenarios":
@@ -677,21 +690,32 @@ def _list(what: str) -> int:
             return EXIT_RUNTIME
         rows = sorted(((scenario_family(p), _shown_path(p), _scenario_description(p)) for p in paths),
                       key=lambda r: (r[0] == "-", r[0], r[1]))
+    elif what == "families":  # what each registers, by name: nothing behind them is imported
+        for name, fam in sorted(families().items()):
+            has = [f"{len(getattr(fam, k))} {k}" for k in ("behaviors", "checks", "commands") if getattr(fam, k)]
+            has += ["conformance suite"] if fam.suite is not None else []
+            rows.append((name, ", ".join(has) or "-", fam.description or _family_doc(available(FAMILIES)[name])))
+        for name, why in sorted(broken_families().items()):
+            rows.append((name, "NOT LOADED", why))
     else:
-        group = {"behaviors": BEHAVIORS, "checks": CHECKS, "families": "swarmactors.families"}[what]
+        group = {"behaviors": BEHAVIORS, "checks": CHECKS}[what]
         for name in sorted(available(group)):
             try:
                 obj = resolve(group, name)
             except PluginError as exc:
-                rows.append((name, f"(cannot load: {exc})"))
+                rows.append((name, family_of(group, name) or "-", f"(cannot load: {exc})"))
                 continue
-            if what == "families":
-                obj = sys.modules[obj.suite.__module__.rpartition(".")[0]]  # the family's package docstring
-            rows.append((name, _first_line(obj)))
+            rows.append((name, family_of(group, name) or "-", _first_line(obj)))
     widths = [max((len(r[i]) for r in rows), default=0) for i in range(len(rows[0]) - 1)] if rows else []
     for row in rows:
         print("  ".join([*(f"{c:<{w}}" for c, w in zip(row, widths, strict=False)), row[-1]]).rstrip())
     return EXIT_OK
+
+
+def _family_doc(source: str) -> str:
+    """The first line of the docstring of the package whose ``suite.py`` holds the family (imported already)."""
+    package = sys.modules.get(source.partition(":")[0].rpartition(".")[0])
+    return _first_line(package) if package is not None else ""
 
 
 def _shown_path(path: Path) -> str:

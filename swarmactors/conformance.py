@@ -1,9 +1,9 @@
 """The conformance kit: protocol families' suites, run against any implementation.
 
 A protocol family (registered in the ``swarmactors.families`` entry-point
-group) is a ``Family``: its name (the name reports go under), its built-in
-behaviour, its report contract (the ``report()`` fields its checks read, with
-their types) and its suite: a function ``suite(mode) -> list[Case]`` for
+group) is a ``Family`` (``swarmactors.family``): its name (the name reports go
+under), its built-in behaviour, its report contract (the ``report()`` fields
+its checks read, with their types) and its suite: a function ``suite(mode) -> list[Case]`` for
 ``mode`` "quick" or "full". A ``Case`` is data - a scenario (as parsed from
 TOML) and the oracle checks it must pass - so the project's own tests, the
 ``swarmactors check`` command and the pytest plugin run the very same cases.
@@ -31,31 +31,14 @@ from typing import Any, Callable
 import numpy as np
 import tomli_w
 
-from swarmactors.plugins import BEHAVIORS, PluginError, available, resolve
+from swarmactors.family import Case, Family, comb, ladder, line, ring
+from swarmactors.plugins import BEHAVIORS, FAMILIES, PluginError, available, resolve
+from swarmactors.plugins import families as registered_families
 from swarmactors.scenario import resolve_scenario, to_raw
 from swarmactors.trace import canonical, read_trace
 
-FAMILIES = "swarmactors.families"
-
-
-@dataclass
-class Case:
-    """One conformance case: a scenario and the checks it must pass."""
-
-    name: str
-    scenario: dict
-    checks: list[dict]
-    determinism: bool = True  # lockstep cases: also run with 2 host processes, same trace hash
-
-
-@dataclass
-class Family:
-    """A protocol family as the conformance kit sees it."""
-
-    name: str
-    behavior: str  # the built-in behaviour's short name
-    report: dict[str, type | tuple[type, ...]]  # report() field -> type(s)
-    suite: Callable[[str], list[Case]]
+__all__ = ["FAMILIES", "Case", "CaseResult", "ContractError", "Family", "check", "comb", "families", "ladder", "line",
+           "random_geometric", "ring", "run_case"]
 
 
 @dataclass
@@ -78,34 +61,6 @@ class ContractError(ValueError):
 
 
 # ------------------------------------------------------------------ graph families
-def ring(n: int, spacing: float = 0.8) -> list[list[float]]:
-    """A ring of n robots on a circle, neighbours ``spacing`` apart (a cycle when range >= spacing)."""
-    radius = spacing / (2 * math.sin(math.pi / n))
-    return [[radius * math.cos(2 * math.pi * i / n), radius * math.sin(2 * math.pi * i / n)] for i in range(n)]
-
-
-def line(n: int, spacing: float = 0.8) -> list[list[float]]:
-    """A path of n robots."""
-    return [[i * spacing, 0.0] for i in range(n)]
-
-
-def ladder(n: int, spacing: float = 0.8) -> list[list[float]]:
-    """Two rails of n/2 robots with rungs (a biconnected graph without long cycles inside)."""
-    half = n // 2
-    return [[i * spacing, 0.0] for i in range(half)] + [[i * spacing, spacing] for i in range(half)]
-
-
-def comb(n: int, spacing: float = 0.8) -> list[list[float]]:
-    """A tree: a spine with a tooth on every other spine robot (range between spacing and spacing*sqrt 2)."""
-    spine = (n + 1) // 2 + (n + 1) // 4
-    pts = [[i * spacing, 0.0] for i in range(spine)]
-    i = 0
-    while len(pts) < n:
-        pts.append([i * spacing, spacing])
-        i += 2
-    return pts[:n]
-
-
 def random_geometric(n: int, seed: int, degree: float = 4.0, radius: float = 1.0) -> list[list[float]]:
     """A connected random geometric graph: n robots uniform in a square, ~``degree`` neighbours in ``radius``."""
     from swarmactors.scenario import draw_until_connected
@@ -121,12 +76,8 @@ def random_geometric(n: int, seed: int, degree: float = 4.0, radius: float = 1.0
 
 # ------------------------------------------------------------------ families
 def families() -> dict[str, Family]:
-    """Every registered family, by name."""
-    out = {}
-    for name in sorted(available(FAMILIES)):
-        fam = resolve(FAMILIES, name)
-        out[fam.name] = fam
-    return out
+    """Every registered family that has a conformance suite, by name (``swarmactors.plugins.families``)."""
+    return {name: fam for name, fam in registered_families().items() if fam.suite is not None}
 
 
 def behavior_path(cls_or_path: type | str) -> str:

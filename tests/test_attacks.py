@@ -1189,7 +1189,7 @@ def test_schedule_instance_beyond_the_bounds_is_refused_before_the_model(tmp_pat
 
 
 def test_schedule_model_too_large_for_its_tasks_and_slots_is_refused():
-    from protocols.secs.schedule import MAX_VARIABLES, Instance, InstanceError, Task, check_instance
+    from protocols.tsc.schedule import MAX_VARIABLES, Instance, InstanceError, Task, check_instance
 
     caps = [frozenset({f"c{i}", f"d{j}"}) for i in range(30) for j in range(30)]  # 900 capability sets
     tasks = tuple(Task(f"t{i}", (1.0, 1.0), capabilities=frozenset({f"c{i % 30}"})) for i in range(100))
@@ -1200,8 +1200,8 @@ def test_schedule_model_too_large_for_its_tasks_and_slots_is_refused():
 
 def test_schedule_time_limit_covers_building_the_model():
     """A limit that runs out while the 100-task model is built: no solve, the message says what ran out."""
-    from protocols.secs import schedule as tsc
-    from protocols.secs.schedule_cli import load_instance
+    from protocols.tsc import schedule as tsc
+    from protocols.tsc.schedule_cli import load_instance
 
     inst, _ = load_instance(_chain_instance_file())
     started = time.monotonic()
@@ -1220,7 +1220,7 @@ def _chain_instance_file() -> Path:
 
 def test_schedule_solver_that_overruns_its_limit_is_stopped(tmp_path, capsys):
     """HiGHS's presolve of a 100-task priority chain ignores a 2 s limit for tens of seconds: stopped, exit 3."""
-    from protocols.secs.schedule import OVERRUN_S, OVERRUN_SHARE
+    from protocols.tsc.schedule import OVERRUN_S, OVERRUN_SHARE
 
     limit = 2.0
     code, err, seconds = _bad_run(["schedule", str(_chain_instance_file()), "--time-limit", str(limit), "--model",
@@ -1232,7 +1232,7 @@ def test_schedule_solver_that_overruns_its_limit_is_stopped(tmp_path, capsys):
 
 
 def test_within_kills_what_overruns_and_reports_what_fails():
-    from protocols.secs.schedule import _within
+    from protocols.tsc.schedule import _within
 
     started = time.monotonic()
     assert _within(lambda: time.sleep(30), 0.3) is None

@@ -354,7 +354,7 @@ def _callable_spec(tmp_path: Path) -> Path:
 def test_a_sweep_of_a_trial_function_gives_the_same_rows_locally_and_on_the_cluster(cluster, tmp_path, monkeypatch):
     """Trials that are not runs (one MILP instance, say): a callable named in the sweep file.
 
-    As in the Table II sweep (benchmarks/tsc-table2.toml).
+    As in the Table II sweep (protocols/tsc/experiments/tsc-table2.toml).
     """
     address, client = cluster
     spec = _callable_spec(tmp_path)

@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import pytest
 
 from swarmactors.sweep import plan, read_spec, returned_values, run_sweep
 
-BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
-SWEEP_FILES = sorted(p for p in BENCH.glob("*.toml") if read_spec(p) is not None)
+ROOT = Path(__file__).resolve().parents[1]
+BENCH = ROOT / "benchmarks"
+# beside their scripts: in benchmarks/, or in a family's wing (protocols/<family>/experiments/)
+SWEEP_FILES = sorted(p for p in [*BENCH.glob("*.toml"), *ROOT.glob("protocols/*/experiments/*.toml")]
+                     if read_spec(p) is not None)
+TABLE2 = ROOT / "protocols" / "tsc" / "experiments" / "tsc-table2.toml"
 
 
 @pytest.fixture(autouse=True)
@@ -20,6 +23,7 @@ def _benchmarks_importable(monkeypatch):
 
 def test_there_are_experiment_sweep_files():
     assert {p.name for p in SWEEP_FILES} >= {"tsc-table2.toml", "lambda2-fig2.toml"}
+    assert TABLE2 in SWEEP_FILES
 
 
 @pytest.mark.parametrize("path", SWEEP_FILES, ids=lambda p: p.name)
@@ -32,9 +36,8 @@ def test_each_experiment_sweep_file_plans(path):
 @pytest.mark.slow
 def test_the_table2_sweep_solves_and_draws_from_its_csv(tmp_path):
     """Two tiny instances through the sweep engine (in one worker process), then the post step from the CSV."""
-    sw = plan(BENCH / "tsc-table2.toml", ["quick=true", "time_limit=5"], ["class=1", "density=0.05,0.5"], 1,
-              tmp_path / "t2")
-    assert str(BENCH) in sys.path
+    sw = plan(TABLE2, ["quick=true", "time_limit=5"], ["class=1", "density=0.05,0.5"], 1, tmp_path / "t2")
+    assert sw.trial_fn == "protocols.tsc.experiments.tsc_experiments:sweep_trial"  # by its full package path
     outcome = run_sweep(sw, workers=1, keep="none")
     assert outcome.errors == 0 and outcome.ran == 2
     records = returned_values(outcome.csv)

@@ -27,10 +27,14 @@ ORACLE = ("sorted(m for m in sys.modules"
 
 
 def test_the_behavior_api_and_every_builtin_behaviour_load_without_the_oracle():
-    from importlib.metadata import entry_points
+    """As a host does: the registry loads every family (its suite.py) to know the behaviour names."""
+    from swarmactors.plugins import BEHAVIORS, available
 
-    modules = sorted({ep.value.split(":")[0] for ep in entry_points(group="swarmactors.behaviors")})
+    modules = sorted({target.split(":")[0] for target in available(BEHAVIORS).values()})
+    assert "protocols.relays.behavior" in modules and "swarmactors.rl.behavior" in modules
     code = ("import sys\nfrom swarmactors import Behavior, Context, Frame\nimport swarmactors.host\n"
+            "from swarmactors.plugins import BEHAVIORS, available, broken_families\n"
+            "assert available(BEHAVIORS) and not broken_families(), broken_families()\n"
             + "".join(f"import {m}\n" for m in modules) + f"print({ORACLE})")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]", out.stdout

@@ -23,7 +23,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 
-from protocols.secs.schedule import (
+from protocols.tsc.schedule import (
     ARMS,
     Instance,
     InstanceError,
@@ -34,7 +34,7 @@ from protocols.secs.schedule import (
     solve,
     solve_tctm,
 )
-from protocols.secs.schedule_check import check_schedule, euclidean_excess
+from protocols.tsc.schedule_check import check_schedule, euclidean_excess
 from swarmactors.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -456,8 +456,8 @@ def test_bad_input_from_the_installed_command_has_no_traceback(tmp_path):
 @pytest.mark.slow  # about 10-20 s: a handful of small instances through both models and the plots
 def test_benchmark_quick_mode(tmp_path):
     out = tmp_path / "tsc.json"
-    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "tsc_experiments.py"), "--quick", "--out",
-                           str(out), "--img", str(tmp_path)], capture_output=True, text=True, timeout=300)
+    proc = subprocess.run([sys.executable, "-m", "protocols.tsc.experiments.tsc_experiments", "--quick", "--out",
+                           str(out), "--img", str(tmp_path)], capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr
     data = json.loads(out.read_text())
     assert data["instances"] and all(r["violations"] == [] for r in data["instances"])

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from swarmactors.conformance import Case, Family, comb, ladder, line, random_geometric, ring
+from swarmactors.family import Case, Family, comb, ladder, line, ring
 
 
 # ------------------------------------------------------------------ conformance suite
@@ -25,6 +25,8 @@ def suite(mode: str) -> list[Case]:
 
     Graphs stay small: the relay enumerates simple paths.
     """
+    from swarmactors.conformance import random_geometric  # draws until connected: when cases are built
+
     bowtie = [[0.0, 0.0], [0.8, 0.4], [0.0, 0.8], [1.6, 0.0], [1.6, 0.8]]  # two triangles sharing robot 1
     two_rings = ring(5) + [[x + 20.0, y] for x, y in ring(5)]
     cases = [
@@ -49,4 +51,7 @@ def suite(mode: str) -> list[Case]:
 FAMILY = Family(name="biconnectivity", behavior="biconnectivity",
                 report={"cr": list, "dcr": list, "biconnected": (bool, type(None)), "decided_at": (int, float,
                                                                                                   type(None))},
-                suite=suite)
+                suite=suite,
+                behaviors={"biconnectivity": "protocols.biconnectivity.behavior:Biconnectivity"},
+                checks={f"biconnectivity.{c}": f"protocols.biconnectivity.oracle:{c}"
+                        for c in ("lists", "verdict", "paths", "removal", "join")})

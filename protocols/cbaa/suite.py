@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from swarmactors.conformance import Case, Family, comb, ladder, line, random_geometric, ring
+from swarmactors.family import Case, Family, comb, ladder, line, ring
 
 
 def _cbaa_case(name: str, positions: list, tasks: list, *, clock="lockstep", loss=0.0, seed=1,
@@ -28,6 +28,8 @@ def _tasks(n: int, seed: int, spread: float) -> list[list[float]]:
 
 def suite(mode: str) -> list[Case]:
     """Static networks of several shapes, fewer and more tasks than robots, both clocks, loss."""
+    from swarmactors.conformance import random_geometric  # draws until connected: when cases are built
+
     ties = [[0.4 + 0.8 * i, 0.0] for i in range(5)]  # each task equidistant from two robots: equal bids
     cases = [
         _cbaa_case("line-6-tied-tasks-5", line(6), ties),
@@ -53,4 +55,7 @@ def suite(mode: str) -> list[Case]:
 
 FAMILY = Family(name="cbaa", behavior="cbaa",
                 report={"task": (int, type(None)), "bids": list, "winners": list, "changed_at": (int, type(None))},
-                suite=suite)
+                suite=suite,
+                behaviors={"cbaa": "protocols.cbaa.behavior:CBAA"},
+                checks={f"cbaa.{c}": f"protocols.cbaa.oracle:{c}"
+                        for c in ("conflict_free", "greedy", "rounds", "optimality")})

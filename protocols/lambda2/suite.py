@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from swarmactors.conformance import Case, Family, line, random_geometric, ring
+from swarmactors.family import Case, Family, line, ring
 
 
 def star(n: int, radius: float = 0.95) -> list[list[float]]:
@@ -53,6 +53,8 @@ def _case(name: str, positions: list, ticks: int, checks: list[dict], **kw) -> C
 
 def suite(mode: str) -> list[Case]:
     """Lossless graph families within 1 % (the stated iteration), a disconnected pair, loss, realtime."""
+    from swarmactors.conformance import random_geometric  # draws until connected: when cases are built
+
     acc = [{"use": "lambda2.accurate", "tol": 1.0}, {"use": "lambda2.robust"}]
     cases = [
         _case("ring-8", ring(8), 120, acc),
@@ -76,4 +78,7 @@ def suite(mode: str) -> list[Case]:
 
 FAMILY = Family(name="lambda2", behavior="lambda2",
                 report={"final": (float, int, type(None)), "estimates": list},
-                suite=suite)
+                suite=suite,
+                behaviors={"lambda2": "protocols.lambda2.behavior:Lambda2"},
+                checks={f"lambda2.{c}": f"protocols.lambda2.oracle:{c}"
+                        for c in ("accurate", "robust")})

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from swarmactors.conformance import Case, Family
+from swarmactors.family import Case, Family
 
 # Table 1 (§5): followers 1–6, then 7–10 alike. (ρ, ρ′, ρ″, ρ‴, size, U)
 TABLE1 = [(5.00, 4.65, 0.55, 0.20, 0.20, 0.90), (4.00, 3.55, 0.75, 0.30, 0.30, 0.60),
@@ -154,4 +154,8 @@ def suite(mode: str) -> list[Case]:
     return cases
 
 
-FAMILY = Family(name="leader_follower", behavior="leader_follower", report={"role": str}, suite=suite)
+FAMILY = Family(name="leader_follower", behavior="leader_follower", report={"role": str}, suite=suite,
+                behaviors={"leader_follower": "protocols.leader_follower.behavior:Follower",
+                           "lf_leader": "protocols.leader_follower.behavior:Leader"},
+                checks={f"leader_follower.{c}": f"protocols.leader_follower.oracle:{c}"
+                        for c in ("spanning_tree", "target_distance", "speed", "sigma", "assumptions")})

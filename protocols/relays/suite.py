@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from swarmactors.conformance import Case, Family
+from swarmactors.family import Case, Family
 
 # The paper's parameters (002 Sec. V); our tick is dt = 0.2 s (ARGoS' step is 0.1 s).
 PAPER = {"ds": 1.4, "dc": 1.6, "db": 1.8, "vmax": 0.5, "rcol": 0.25}
@@ -193,4 +193,7 @@ def suite(mode: str) -> list[Case]:
 
 FAMILY = Family(name="relays", behavior="relays",
                 report={"reached_at": (int, type(None)), "plan_status": (str, type(None))},
-                suite=suite)
+                suite=suite,
+                behaviors={"relays": "protocols.relays.behavior:Relays"},
+                checks={f"relays.{c}": f"protocols.relays.oracle:{c}"
+                        for c in ("connected", "links_within_db", "reached", "healed")})

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from protocols.roles.scenarios import patrol_scenario
-from swarmactors.conformance import Case, Family
+from swarmactors.family import Case, Family
 
 LOSSLESS = [{"use": "roles.leader"}, {"use": "roles.chain"}, {"use": "roles.gabriel", "grace": 2},
             {"use": "roles.disconnections", "max_recovery": 60}]
@@ -53,4 +53,9 @@ def suite(mode: str) -> list[Case]:
 FAMILY = Family(name="roles", behavior="roles",
                 report={"role": str, "roles": list, "connections": list, "handovers": list, "refused": dict,
                         "reached": list},
-                suite=suite)
+                suite=suite,
+                behaviors={"roles": "protocols.roles.behavior:RoleSwitching",
+                           "aat": "protocols.roles.behavior:AATWalk"},
+                checks={f"roles.{c}": f"protocols.roles.oracle:{c}"
+                        for c in ("leader", "chain", "gabriel", "disconnections", "targets", "connectivity",
+                                  "handover")})

@@ -9,7 +9,7 @@ connectivity at every tick, the task reached, no collision of the 10 cm bodies, 
 from __future__ import annotations
 
 from protocols.secs.scenarios import secs_scenario
-from swarmactors.conformance import Case, Family
+from swarmactors.family import Case, Family
 
 ALL = [{"use": "secs.connected"}, {"use": "secs.reach"}, {"use": "world.no_collisions"},
        {"use": "secs.angle", "bound": 0.05}]
@@ -43,4 +43,7 @@ def suite(mode: str) -> list[Case]:
 FAMILY = Family(name="secs", behavior="secs",
                 report={"arm": (int, type(None)), "target": (float, int, type(None)), "aligned": bool,
                         "odo": (list, type(None)), "at": (int, type(None)), "master": int},
-                suite=suite)
+                suite=suite,
+                behaviors={"secs": "protocols.secs.behavior:SECS"},
+                checks={f"secs.{c}": f"protocols.secs.oracle:{c}"
+                        for c in ("connected", "reach", "angle", "slots")})

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from swarmactors.conformance import Case, Family, comb, line, random_geometric, ring
+from swarmactors.family import Case, Family, comb, line, ring
 
 
 # ------------------------------------------------------------------ conformance suite
@@ -33,6 +33,8 @@ def _writes(n: int, seed: int, count: int = 6) -> list[dict]:
 
 def suite(mode: str) -> list[Case]:
     """Writes, conflicts and deletes on several graphs; loss with anti-entropy; two components; both clocks."""
+    from swarmactors.conformance import random_geometric  # draws until connected: when cases are built
+
     exact = [{"use": "stigmergy.consistent", "within": 40}, {"use": "stigmergy.latency"}]
     repaired = [{"use": "stigmergy.consistent"}]
     two_components = line(5) + [[x + 20.0, y] for x, y in line(5)]
@@ -59,4 +61,8 @@ def suite(mode: str) -> list[Case]:
 
 
 FAMILY = Family(name="stigmergy", behavior="stigmergy", report={"table": dict, "writes": list, "changed_at": dict},
-                suite=suite)
+                suite=suite,
+                behaviors={"stigmergy": "protocols.stigmergy.behavior:StigmergyScript",
+                           "election": "protocols.stigmergy.behavior:StigmergyElection"},
+                checks={f"stigmergy.{c}": f"protocols.stigmergy.oracle:{c}"
+                        for c in ("consistent", "latency", "election")})

@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Task Scheduling Controller (seed 003 §IV-B, Table II, Figs. 6-8): TCTM and TDSM solve times on HiGHS.
 
-    python benchmarks/tsc_experiments.py [--quick] [--per-cell 24] [--time-limit 60] [--jobs 2] \
+    python -m protocols.tsc.experiments.tsc_experiments [--quick] [--per-cell 24] [--time-limit 60] [--jobs 2] \
         [--out benchmarks/results/tsc.json] [--img docs/img] [--resume]
 
 Instances as in §IV-B: square arena of side L = sqrt(|N| π Γ² / D) (Eq. 15), |C| = 2, Γ = Ω = 1, μ = 0,
@@ -9,7 +9,7 @@ D in {0.005, 0.01, 0.05, 0.1, 0.2, 0.5}, five classes (CLASSES below: the paper 
 p_Rob, p_Tsk, β_max, δ_max; class 5 is class 1 with heterogeneous durations), 24 instances per (class, D):
 720 in all. Each instance is solved as in the paper: TCTM, then TDSM bounded by TCTM's Λ, each with the time
 limit; instances run in parallel worker processes (one HiGHS each). Every schedule is checked by
-``protocols.secs.schedule_check``. ``--per-cell K`` runs the first K instances of every cell (the same ones
+``protocols.tsc.schedule_check``. ``--per-cell K`` runs the first K instances of every cell (the same ones
 whatever K); ``--resume`` skips the instances already in the output JSON or in the ``.partial.jsonl`` log an
 interrupted run leaves beside it.
 
@@ -17,11 +17,11 @@ Writes the per-instance records and the Table II aggregates to the JSON file, an
 as curves, and Λ against D), ``tsc-dislocation.png`` (Fig. 7), ``tsc-arms.png`` (Fig. 8) and
 ``tsc-schedule.png`` (Fig. 6: one instance, both models) to the image directory. Nothing is asserted.
 
-The same experiment as one sweep (``benchmarks/tsc-table2.toml``: a grid of class × D, 24 trials a cell, each
-trial one instance solved by ``sweep_trial``; ``sweep_figures`` draws Table II and Figs. 7-8 from trials.csv),
-locally or on a Dask cluster:
+The same experiment as one sweep (``protocols/tsc/experiments/tsc-table2.toml``: a grid of class × D, 24
+trials a cell, each trial one instance solved by ``sweep_trial``; ``sweep_figures`` draws Table II and Figs. 7-8
+from trials.csv), locally or on a Dask cluster:
 
-    swarmactors sweep benchmarks/tsc-table2.toml [--cluster tcp://SCHEDULER:8786] [--trials 8]
+    swarmactors sweep protocols/tsc/experiments/tsc-table2.toml [--cluster tcp://SCHEDULER:8786] [--trials 8]
 """
 
 from __future__ import annotations
@@ -43,10 +43,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import scipy  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]  # the checkout: protocols/tsc/experiments/ is three levels down
 sys.path.insert(0, str(ROOT))
 
-from protocols.secs.schedule import (  # noqa: E402
+from protocols.tsc.schedule import (  # noqa: E402
     DENSITIES,
     arm_cost,
     completion_time,
@@ -56,7 +56,7 @@ from protocols.secs.schedule import (  # noqa: E402
     solve_tdsm,
     used_slots,
 )
-from protocols.secs.schedule_check import check_schedule, euclidean_excess  # noqa: E402
+from protocols.tsc.schedule_check import check_schedule, euclidean_excess  # noqa: E402
 from swarmactors.sweep import returned_values  # noqa: E402
 
 # One base class and one-factor variations of it (docs/protocols/tsc.md, "Instances"): sized so that HiGHS on
@@ -230,7 +230,7 @@ def _ratio(r: dict, key: str):
 
 
 def plot_example(classes: dict, cls: int, density: float, idx: int, limit: float, path: Path) -> dict:
-    from protocols.secs.schedule_plot import save_schedule_figure
+    from protocols.tsc.schedule_plot import save_schedule_figure
 
     inst = instance(classes, cls, density, idx)
     tctm = solve_tctm(inst, limit)
@@ -240,7 +240,7 @@ def plot_example(classes: dict, cls: int, density: float, idx: int, limit: float
 
 
 def sweep_trial(params: dict, *, seed: int, trial: int) -> dict:
-    """One trial of ``benchmarks/tsc-table2.toml``: instance number ``trial`` of cell (class, density).
+    """One trial of ``protocols/tsc/experiments/tsc-table2.toml``: instance number ``trial`` of cell (class, density).
 
     The instance depends on (class, D, trial) only, as in ``main`` (the sweep's seed is not used), so the
     sweep and the script solve the same instances.
