@@ -7,7 +7,8 @@ as import paths, loaded only when used. The core's own family (``world.no_collis
 is built in. A ``module:attribute`` path imports a user's own class or function directly. The runner never
 imports ``protocols`` by name, so dependencies keep flowing ``protocols -> swarmactors``.
 
-A name registered by two families is refused: the second family (in entry-point order) is not loaded, and
+A name registered by two families is refused: the later family (the core's and the shipped ones come first,
+then the others by name) is not loaded, and
 ``swarmactors list families`` names both. A family that cannot be loaded (an import error, a ``FAMILY`` that
 is not a ``Family``) is reported the same way; the others, and the command line, keep working. The groups of
 earlier releases (``swarmactors.behaviors``, ``swarmactors.checks``, ``swarmactors.commands``: one entry
@@ -101,12 +102,19 @@ def _deprecated_family(dist: str, eps: list) -> Family:
                   **tables)
 
 
+def _dist(ep) -> str | None:
+    return ep.dist.name if getattr(ep, "dist", None) is not None else None
+
+
 @cache
 def registry() -> Registry:
-    """The core family, every ``swarmactors.families`` entry point, then the deprecated groups."""
+    """The core family, the shipped families, the installed ones, then the deprecated groups.
+
+    So a name clash never displaces a family shipped with swarmactors: the newcomer is refused.
+    """
     reg = Registry()
     reg.add(CORE, "swarmactors.family:CORE")
-    for ep in sorted(entry_points(group=FAMILIES), key=lambda e: e.name):
+    for ep in sorted(entry_points(group=FAMILIES), key=lambda e: (_dist(e) != "swarmactors", e.name)):
         try:
             fam = _load_family(ep.value)
         except (PluginError, ValueError) as exc:
@@ -119,7 +127,7 @@ def registry() -> Registry:
     old: dict[str, list] = {}
     for group in _FIELDS:
         for ep in entry_points(group=group):
-            dist = ep.dist.name if getattr(ep, "dist", None) is not None else ep.value.partition(".")[0]
+            dist = _dist(ep) or ep.value.partition(".")[0]
             old.setdefault(dist, []).append(ep)
     for dist, eps in sorted(old.items()):
         groups = sorted({ep.group for ep in eps})
