@@ -1,8 +1,8 @@
 """Checks: oracle verdicts on a finished run.
 
-A check is a function ``fn(result: Result, **params)`` registered in the
-``swarmactors.checks`` entry-point group (``protocols`` registers its
-families' checks). It returns one ``Outcome`` or a list of them. Checks run in
+A check is a function ``fn(result: Result, **params)`` registered by a family
+(``swarmactors.family.Family.checks``; ``protocols`` registers its families'
+checks), or named by its ``module:function`` path. It returns one ``Outcome`` or a list of them. Checks run in
 the runner, over result.json and the trace, never in the world.
 """
 
