@@ -692,7 +692,9 @@ def _list(what: str) -> int:
                       key=lambda r: (r[0] == "-", r[0], r[1]))
     elif what == "families":  # what each registers, by name: nothing behind them is imported
         for name, fam in sorted(families().items()):
-            has = [f"{len(getattr(fam, k))} {k}" for k in ("behaviors", "checks", "commands") if getattr(fam, k)]
+            has = [f"{len(getattr(fam, k))} {word}{'s' if len(getattr(fam, k)) > 1 else ''}"
+                   for k, word in (("behaviors", "behaviour"), ("checks", "check"), ("commands", "subcommand"))
+                   if getattr(fam, k)]
             has += ["conformance suite"] if fam.suite is not None else []
             rows.append((name, ", ".join(has) or "-", fam.description or _family_doc(available(FAMILIES)[name])))
         for name, why in sorted(broken_families().items()):

@@ -83,7 +83,7 @@ CORE = Family(
     name="core",
     behaviors={"rl": "swarmactors.rl.behavior:RLBehavior"},
     checks={"world.no_collisions": "swarmactors.world_checks:no_collisions"},
-    description="the core: the world's checks (world.no_collisions) and the behaviour swarmactors.rl drives",
+    description="The core: the world's checks (world.no_collisions) and the behaviour swarmactors.rl drives",
 )
 
 

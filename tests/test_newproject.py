@@ -94,7 +94,7 @@ def test_a_generated_family_passes_its_tests_and_its_check(tmp_path):
     env = _register(tmp_path, name)
     listed = subprocess.run([sys.executable, "-m", "swarmactors", "list", "families"], env=env, cwd=tmp_path,
                             capture_output=True, text=True, timeout=120)
-    assert any(ln.split()[:4] == [name, "1", "behaviors,", "2"] for ln in listed.stdout.splitlines()), listed.stdout
+    assert any(ln.split()[:4] == [name, "1", "behaviour,", "2"] for ln in listed.stdout.splitlines()), listed.stdout
     tests = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", f"{name}/tests"],
                            env=env, cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert tests.returncode == 0, tests.stdout + tests.stderr

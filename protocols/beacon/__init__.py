@@ -1,1 +1,4 @@
-"""Beacons: the workload of the benchmarks and the radio tests (``behavior.py``). No oracle, no suite."""
+"""Beacons: the workload of the benchmarks and the radio tests (``behavior.py``; ``suite.py`` registers it).
+
+No oracle, no conformance suite.
+"""
