@@ -27,11 +27,16 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable, MutableMapping
-from typing import Any, ClassVar, Union
+import sys
+from typing import Annotated, Any, ClassVar, Union
 
 import msgspec
 
 Num = Union[int, float]  # noqa: UP007 - a runtime alias msgspec reads in annotations
+_BIG = sys.float_info.max
+Finite = Union[int, Annotated[float, msgspec.Meta(ge=-_BIG, le=_BIG)]]  # noqa: UP007 - no inf, no nan
+NonNeg = Union[Annotated[int, msgspec.Meta(ge=0)], Annotated[float, msgspec.Meta(ge=0, le=_BIG)]]  # noqa: UP007
+Index = Annotated[int, msgspec.Meta(ge=0)]  # a robot id, a task index, a period
 UNSET = msgspec.UNSET
 UnsetType = msgspec.UnsetType
 
