@@ -1,4 +1,7 @@
-"""The paper experiments written as sweep files (benchmarks/*.toml): each plans, and its trial and post run."""
+"""The paper experiments written as sweep files: each plans, and its trial and post run.
+
+The files: benchmarks/*.toml and protocols/*/experiments/*.toml.
+"""
 
 from __future__ import annotations
 
@@ -10,10 +13,10 @@ from swarmactors.sweep import plan, read_spec, returned_values, run_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "benchmarks"
+TABLE2 = ROOT / "protocols" / "tsc" / "experiments" / "tsc-table2.toml"
 # beside their scripts: in benchmarks/, or in a family's wing (protocols/<family>/experiments/)
 SWEEP_FILES = sorted(p for p in [*BENCH.glob("*.toml"), *ROOT.glob("protocols/*/experiments/*.toml")]
                      if read_spec(p) is not None)
-TABLE2 = ROOT / "protocols" / "tsc" / "experiments" / "tsc-table2.toml"
 
 
 @pytest.fixture(autouse=True)
@@ -22,11 +25,11 @@ def _benchmarks_importable(monkeypatch):
 
 
 def test_there_are_experiment_sweep_files():
-    assert {p.name for p in SWEEP_FILES} >= {"tsc-table2.toml", "lambda2-fig2.toml"}
-    assert TABLE2 in SWEEP_FILES
+    assert {p.relative_to(ROOT).as_posix() for p in SWEEP_FILES} >= {
+        "protocols/tsc/experiments/tsc-table2.toml", "protocols/lambda2/experiments/fig2.toml"}
 
 
-@pytest.mark.parametrize("path", SWEEP_FILES, ids=lambda p: p.name)
+@pytest.mark.parametrize("path", SWEEP_FILES, ids=lambda p: p.relative_to(ROOT).as_posix())
 def test_each_experiment_sweep_file_plans(path):
     sw = plan(path, [], [], None, None)  # loads the trial and post functions, validates the grid
     assert sw.trial_fn or sw.scenario.exists()

@@ -8,16 +8,19 @@ s_i, plus what the method piggybacks); at iteration k + 1 it uses the values its
   a late frame and a lost one look alike) each neighbour's value of the previous iteration is used, or its
   latest older one within ``hold`` iterations.
   (drop = "reuse") - the last value heard from each neighbour within ``hold`` iterations is used.
-* R2 - a frame that is not a dict of finite numbers, or whose k is from the future (k > own k, one more in
-  realtime), is refused and counted by cause; it changes nothing.
+* R2 - a frame whose body is not an ``messages.L2`` (decoded by msgspec) or holds a number that is not
+  finite, or whose k is from the future (k > own k, one more in realtime), is refused and counted by cause;
+  it changes nothing.
 * R3 - warm-up (no ``dmax`` given): for ``warmup`` ticks robots count who they hear and flood the largest
   degree (max of theirs and what they hear); then d_max is frozen and iteration 0 starts.
 * PI1 - rules.pi1_phase/pi1_step; at the start of each period (an L step) the beacon computes its norm and
   the period's length (rules.pi1_period, from its own estimate) and floods (epoch, norm, length) piggybacked
   (latest epoch wins); every robot divides by the norm ``flood`` iterations later and starts the next
   period when this one ends (``period`` iterations until it has heard the length).
-* PI2 - rules.pi2_phase: a power step w = x − γLx, then ``consensus`` steps of (I − εL) on (w, w²) in the
-  same frames, then x = (w − mean)/RMS.
+* PI2 - rules.pi2_phase: rounds of ``power`` power steps x ← x − γLx (w: the result), then ``consensus``
+  steps of average consensus a ← (I − εL)a from a = w and of max-consensus m ← max(m, m_j) from m = |w|, in
+  the same frames; then x = (w − a)/m (rules.pi2_normalise). ``power`` = 1 is the paper's literal rule (one
+  power step per consensus), which can settle on λ3 (rules.pi2_gain).
 * Wave - rules.wave_step on the robot's own signal; rules.wave_estimate on its FFT.
 
 Each iteration's estimate goes to the status field ``l2`` and to the report's ``estimates``.
@@ -29,13 +32,8 @@ import math
 from collections import Counter
 
 from protocols.lambda2 import rules
+from protocols.lambda2.messages import KIND, L2, decode, encode
 from swarmactors import Behavior, Context, Frame
-
-KIND = "L2"
-
-
-def _finite(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
 class Lambda2(Behavior):
@@ -47,14 +45,16 @@ class Lambda2(Behavior):
 
     def __init__(self, method: str = "pi1", drop: str = "drop", hold: int = 10, dmax: int | None = None,
                  warmup: int = 12, period: int = 30, flood: int = 12, beacon: int = 0, consensus: int = 100,
-                 window: int = 1024, at: int = 0):
+                 power: int = 20, gamma: float | None = None, eps: float | None = None, window: int = 1024,
+                 at: int = 0):
         self.method, self.drop, self.hold, self.dmax = method, drop, hold, dmax
         self.warmup = 0 if dmax is not None else warmup
         self.period, self.flood, self.beacon, self.consensus = period, flood, beacon, consensus
+        self.power, self.gamma_set, self.eps_set = power, gamma, eps
         self.window, self.at = window, at
         self.k = -1 - self.warmup - at  # iteration of the state held (k < 0: before iteration 0)
         self.x = 0.0
-        self.heard: dict[int, dict[int, tuple[int, dict]]] = {}  # neighbour -> its k -> (own k at receipt, body)
+        self.heard: dict[int, dict[int, tuple[int, L2]]] = {}  # neighbour -> its k -> (own k at receipt, body)
         self.fresh: set[int] = set()  # neighbours heard since the last iteration
         self.ever: set[int] = set()
         self.dm = 0  # warm-up max-degree flood
@@ -64,7 +64,8 @@ class Lambda2(Behavior):
         self.epoch, self.start, self.plen = -1, 1, 0  # PI1: current period, its first iteration, its length
         self.normalised = 0
         self.missed_norm = 0
-        self.w = self.a = self.q = 0.0  # PI2 round state
+        self.w = self.a = self.m = 0.0  # PI2 round state: w after the power steps, the consensus values
+        self.est: float | None = None
         self.signal: list[float] = []
         self.prev = 0.0  # wave: s(t-2)
 
@@ -77,48 +78,42 @@ class Lambda2(Behavior):
         if d not in rules.DROPS:
             return f"drop = {d!r} must be one of {list(rules.DROPS)}"
         for key, low in (("hold", 1), ("warmup", 1), ("period", 5), ("flood", 0), ("beacon", 0),
-                         ("consensus", 1), ("window", 16), ("at", 0), ("dmax", 1)):
+                         ("consensus", 1), ("power", 1), ("window", 16), ("at", 0), ("dmax", 1)):
             v = params.get(key)
             if v is not None and (not isinstance(v, int) or isinstance(v, bool) or v < low):
                 return f"{key} = {v!r} must be an integer >= {low}"
+        for key in ("gamma", "eps"):
+            v = params.get(key)
+            if v is not None and (not isinstance(v, (int, float)) or isinstance(v, bool) or not 0.0 < v < 1.0):
+                return f"{key} = {v!r} must be a number in (0, 1)"
         if params.get("flood", 12) + 3 > params.get("period", 30):
             return f"flood = {params.get('flood', 12)} must be at most period - 3 = {params.get('period', 30) - 3}"
         return None
 
     # -------------------------------------------------------------- receive
     def on_frame(self, ctx: Context, frame: Frame) -> None:
-        body = frame.body
-        if (not isinstance(body, dict) or not isinstance(body.get("k"), int) or isinstance(body.get("k"), bool)
-                or "v" not in body):
-            self.refused["malformed"] += 1
+        msg = decode(frame.body, self.flood)
+        if isinstance(msg, str):  # R2: not an L2 body, or a number that is not finite
+            self.refused[msg] += 1
             return
-        for key, v in body.items():
-            if key == "n":
-                ok = (isinstance(v, list) and len(v) == 3 and isinstance(v[0], int) and _finite(v[1]) and v[1] > 0
-                      and isinstance(v[2], int) and v[2] > self.flood + 2)
-            else:
-                ok = _finite(v)
-            if not ok:  # R2: a value that is not a finite number
-                self.refused["nonfinite" if isinstance(v, float) else "malformed"] += 1
-                return
         slack = 1 if ctx.clock == "realtime" else 0
-        if body["k"] > self.k + slack:  # R2: an iteration number from the future
+        if msg.k > self.k + slack:  # R2: an iteration number from the future
             self.refused["future"] += 1
             return
         kept = self.heard.setdefault(frame.src, {})
-        if len(kept) >= 3 and body["k"] < min(kept):  # older than the three iterations kept
+        if len(kept) >= 3 and msg.k < min(kept):  # older than the three iterations kept
             self.refused["stale"] += 1
             return
-        kept[body["k"]] = (self.k, body)
+        kept[msg.k] = (self.k, msg)
         if len(kept) > 3:
             del kept[min(kept)]
         self.fresh.add(frame.src)
-        if "dm" in body:
-            self.dm = max(self.dm, int(body["dm"]))
-        if "n" in body and body["n"][0] > self.norm[0]:  # PI1 flood: the latest epoch wins
-            self.norm = (body["n"][0], float(body["n"][1]), body["n"][2])
+        if msg.dm is not None:
+            self.dm = max(self.dm, msg.dm)
+        if msg.n is not None and msg.n[0] > self.norm[0]:  # PI1 flood: the latest epoch wins
+            self.norm = (msg.n[0], msg.n[1], msg.n[2])
 
-    def _neighbours(self, k: int, realtime: bool) -> list[tuple[int, dict]]:
+    def _neighbours(self, k: int, realtime: bool) -> list[tuple[int, L2]]:
         """R1: the bodies iteration k combines, by neighbour id.
 
         Lockstep: each neighbour's latest body, "drop" only from those heard since the last iteration, "reuse"
@@ -152,17 +147,18 @@ class Lambda2(Behavior):
         self.k = k
         if k < 0:  # R3 warm-up
             self.dm = max(self.dm, len(self.ever))
-            ctx.broadcast(KIND, {"k": k, "v": self.x, "dm": self.dm})
+            ctx.broadcast(KIND, encode(L2(k=k, v=self.x, dm=self.dm)))
             return
         if k == 0:
             self.dmax = self.dmax if self.dmax is not None else max(self.dm, len(self.ever), 1)
-            self.gamma = rules.step_size(self.dmax)
+            self.gamma = self.gamma_set if self.gamma_set is not None else rules.step_size(self.dmax)
+            self.eps = self.eps_set if self.eps_set is not None else rules.consensus_eps(self.dmax)
             self.k2 = rules.wave_k2(self.dmax)
             self.signal = [self.x]
             self.prev = self.x
             self._send(ctx)
             return
-        values = [b["v"] for _, b in nbrs]
+        values = [b.v for _, b in nbrs]
         lx = rules.laplacian_row(self.x, values)
         est = getattr(self, "_" + self.method)(ctx, nbrs, values, lx)
         self.estimates.append(est)
@@ -192,19 +188,20 @@ class Lambda2(Behavior):
         return est
 
     def _pi2(self, ctx: Context, nbrs, values, lx) -> float | None:
-        r = rules.pi2_phase(self.k, self.consensus)
-        if r == 0:  # power step, then consensus on (w, w²) starts
+        r = rules.pi2_phase(self.k, self.power, self.consensus)
+        if r < self.power:  # a power step; the estimate is read on the vector it multiplies
             self.est = rules.ratio_estimate(self.x, lx)
-            self.w = self.x - self.gamma * lx
-            self.a, self.q = self.w, self.w * self.w
+            self.x -= self.gamma * lx
+            if r == self.power - 1:  # w: the consensus on (w, |w|) starts with this iteration's frame
+                self.w = self.x
+                self.a, self.m = self.w, abs(self.w)
         else:
-            # A neighbour's a, q were sent one iteration ago, in the same round (its r - 1 >= 0).
-            eps = rules.consensus_eps(self.dmax)
-            self.a = rules.consensus_step(self.a, [b["a"] for _, b in nbrs if "a" in b], eps)
-            self.q = rules.consensus_step(self.q, [b["q"] for _, b in nbrs if "q" in b], eps)
-            if r == self.consensus:
-                self.x = rules.pi2_normalise(self.w, self.a, self.q)
-        return getattr(self, "est", None)
+            # A neighbour's a, m were sent one iteration ago, in the same round (its r - 1 >= power - 1).
+            self.a = rules.consensus_step(self.a, [b.a for _, b in nbrs if b.a is not None], self.eps)
+            self.m = rules.max_step(self.m, [b.m for _, b in nbrs if b.m is not None])
+            if r == self.power + self.consensus - 1:
+                self.x = rules.pi2_normalise(self.w, self.a, self.m)
+        return self.est
 
     def _wave(self, ctx: Context, nbrs, values, lx) -> float | None:
         s = rules.wave_step(self.x, self.prev, lx, self.k2)
@@ -215,12 +212,12 @@ class Lambda2(Behavior):
         return rules.wave_estimate(self.signal, self.k2)
 
     def _send(self, ctx: Context) -> None:
-        body = {"k": self.k, "v": self.x}
+        msg = L2(k=self.k, v=self.x)
         if self.method == "pi1" and self.norm[0] >= 0:
-            body["n"] = list(self.norm)
+            msg.n = self.norm
         elif self.method == "pi2":
-            body.update(a=self.a, q=self.q)
-        ctx.broadcast(KIND, body)
+            msg.a, msg.m = self.a, self.m
+        ctx.broadcast(KIND, encode(msg))
 
     # -------------------------------------------------------------- report
     def report(self) -> dict:

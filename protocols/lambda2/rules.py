@@ -77,9 +77,21 @@ def beacon_norm(x_b: float, values: Sequence[float]) -> float:
 
 
 # ------------------------------------------------------------------ PI2 (Di Lorenzo & Barbarossa [14])
-def pi2_phase(k: int, consensus: int) -> int:
-    """Position r of iteration k ≥ 1 in a PI2 round of 1 + ``consensus`` iterations: 0 is the power step."""
-    return (k - 1) % (consensus + 1)
+# The paper (§II-B) says only that [14] uses "average consensus" for the normalisation that a power iteration
+# needs. The authors' Octave code iterates B = I − γL − 11ᵀ/K (γ = 0.8/K) once per round, then runs an
+# average consensus (weights 0.8/(K − 1)) until max − min < 0.01 and divides by the true 2-norm: the mean in
+# B and the norm are computed with global knowledge, the consensus only takes the time. A robot has neither,
+# so here the mean comes from a fixed number C of average-consensus steps and the scale from C steps of
+# max-consensus in the same frames. An unfinished average consensus removes only part of each mode, so the
+# deflation is a filter 1 − (1 − ελ_m)^C on mode m; with one power step per round it can favour λ3 over λ2
+# (``pi2_gain``). P power steps per round (``power``) make the power iteration's own ratio
+# ((1 − γλ3)/(1 − γλ2))^P beat the filter's.
+def pi2_phase(k: int, power: int, consensus: int) -> int:
+    """Position r of iteration k ≥ 1 in a PI2 round of ``power`` + ``consensus`` iterations.
+
+    r < power: a power step x ← x − γLx; r ≥ power: a consensus step (the mean and the max of the round's w).
+    """
+    return (k - 1) % (power + consensus)
 
 
 def consensus_step(a_i: float, values: Sequence[float], eps: float) -> float:
@@ -92,11 +104,29 @@ def consensus_eps(dmax: int) -> float:
     return 1.0 / (max(dmax, 1) + 1.0)
 
 
-def pi2_normalise(w_i: float, mean: float, meansq: float) -> float:
-    """x_i ← (w_i − mean(w)) / sqrt(mean(w²) − mean(w)²): deflation by 11ᵀ/K, then the RMS normalisation."""
-    var = meansq - mean * mean
+def max_step(m_i: float, values: Sequence[float]) -> float:
+    """Max-consensus m ← max(m_i, m_j): exact at every robot after as many steps as the graph's diameter."""
+    return max([m_i, *values])
+
+
+def pi2_normalise(w_i: float, mean: float, top: float) -> float:
+    """x_i ← (w_i − a_i)/m: deflation by the consensus mean a_i, division by the max-consensus m of |w|.
+
+    Any scale common to all robots keeps the direction, and the estimate (Lx)_i/x_i does not depend on it;
+    m only keeps the numbers near 1. m = 0 (w = 0 everywhere): centred, not divided.
+    """
     centred = w_i - mean
-    return centred / math.sqrt(var) if var > 0.0 else centred
+    return centred / top if top > 0.0 and math.isfinite(top) else centred
+
+
+def pi2_gain(eigenvalues: Sequence[float], gamma: float, power: int, eps: float, consensus: int) -> list[float]:
+    """Per-round gain of each Laplacian mode under PI2 (lossless): |1 − γλ|^P · |1 − (1 − ελ)^C|.
+
+    The mode of largest gain (λ = 0 has gain 0: it is removed exactly, the consensus keeps the sum) is the
+    fixed point of the round; it is the Fiedler vector only if λ2's gain is the largest. The max-consensus
+    scale multiplies every mode alike and is left out.
+    """
+    return [abs(1.0 - gamma * lam) ** power * abs(1.0 - (1.0 - eps * lam) ** consensus) for lam in eigenvalues]
 
 
 # ------------------------------------------------------------------ Wave (Sahai et al. [17])

@@ -129,12 +129,73 @@ def test_consensus_step_is_i_minus_eps_l_and_keeps_the_mean():
     assert vals.max() - vals.min() < 1e-6
 
 
-def test_pi2_phase_and_normalise():
-    assert [rules.pi2_phase(k, 3) for k in range(1, 9)] == [0, 1, 2, 3, 0, 1, 2, 3]
-    w = np.array([1.0, 2.0, 6.0])
-    x = np.array([rules.pi2_normalise(v, w.mean(), (w**2).mean()) for v in w])
-    assert x.mean() == pytest.approx(0.0) and (x**2).mean() == pytest.approx(1.0)
-    assert rules.pi2_normalise(2.0, 2.0, 4.0) == 0.0  # zero variance: centred, not divided
+def test_pi2_phase_max_step_and_normalise():
+    assert [rules.pi2_phase(k, 2, 3) for k in range(1, 11)] == [0, 1, 2, 3, 4, 0, 1, 2, 3, 4]
+    assert rules.max_step(0.5, [0.2, 0.9]) == 0.9 and rules.max_step(1.0, []) == 1.0
+    assert rules.pi2_normalise(3.0, 1.0, 4.0) == 0.5
+    assert rules.pi2_normalise(2.0, 1.5, 0.0) == 0.5  # m = 0: centred, not divided
+
+
+def simulate_pi2(g: nx.Graph, rounds: int, power: int, consensus: int = 100, seed: int = 5) -> np.ndarray:
+    """Every robot runs the PI2 rules synchronously without loss; returns each robot's last estimate."""
+    n, dmax = len(g), max(d for _, d in g.degree())
+    gamma, eps = rules.step_size(dmax), rules.consensus_eps(dmax)
+    nb = [sorted(g[i]) for i in sorted(g)]
+    x = np.random.default_rng(seed).uniform(size=n)
+    est = np.full(n, np.nan)
+    for _ in range(rounds):
+        for _ in range(power):
+            lx = rows(g, x)
+            est = np.array([rules.ratio_estimate(x[i], lx[i]) or np.nan for i in range(n)])
+            x = x - gamma * lx
+        a, m = x.copy(), np.abs(x)
+        for _ in range(consensus):
+            a, m = (np.array([rules.consensus_step(a[i], [a[j] for j in nb[i]], eps) for i in range(n)]),
+                    np.array([rules.max_step(m[i], [m[j] for j in nb[i]]) for i in range(n)]))
+        x = np.array([rules.pi2_normalise(x[i], a[i], m[i]) for i in range(n)])
+    return est
+
+
+@pytest.mark.parametrize("name", ["path-5", "ring-6", "star-6", "complete-5"])
+def test_pi2_rules_give_every_robot_lambda2(name):
+    g = GRAPHS[name]
+    est = simulate_pi2(g, 10, power=20)
+    # at a zero of every λ2-eigenvector: the star's hub, the middle of an odd path
+    zeros = {"star-6": [0], "path-5": [2]}.get(name, [])
+    judged = [i for i in range(len(g)) if i not in zeros]
+    assert np.allclose(est[judged], true_l2(g), rtol=1e-6)
+
+
+def test_pi2_gain_is_the_eigenvalues_of_the_round_matrix():
+    g = GRAPHS["rgg-12"].subgraph(max(nx.connected_components(GRAPHS["rgg-12"]), key=len))
+    lp = lap(g)
+    dmax = max(d for _, d in g.degree())
+    gamma, eps, power, consensus = rules.step_size(dmax), rules.consensus_eps(dmax), 3, 7
+    n = len(lp)
+    round_matrix = ((np.eye(n) - np.linalg.matrix_power(np.eye(n) - eps * lp, consensus))
+                    @ np.linalg.matrix_power(np.eye(n) - gamma * lp, power))
+    lam = np.linalg.eigvalsh(lp)
+    assert np.allclose(sorted(np.abs(np.linalg.eigvals(round_matrix))),
+                       sorted(rules.pi2_gain(lam, gamma, power, eps, consensus)), atol=1e-9)
+
+
+def test_one_power_step_per_round_favours_lambda3_and_twenty_fix_it():
+    """The paper's literal rule (one power step per consensus) on a 15-robot path settles on λ3.
+
+    The consensus (C = 100 steps of I − εL) removes only 77 % of the Fiedler component each round but all of
+    λ3's, so λ3's gain (0.95) beats λ2's (0.76); with 20 power steps λ2's (0.62) beats λ3's (0.41).
+    """
+    g = nx.path_graph(15)
+    lam = np.linalg.eigvalsh(lap(g))
+    gamma, eps = rules.step_size(2), rules.consensus_eps(2)
+    one = rules.pi2_gain(lam, gamma, 1, eps, 100)
+    twenty = rules.pi2_gain(lam, gamma, 20, eps, 100)
+    assert int(np.argmax(one)) == 2 and int(np.argmax(twenty)) == 1
+    literal = simulate_pi2(g, 120, power=1)
+    assert np.nanmedian(literal) == pytest.approx(lam[2], rel=1e-3)
+    ours = simulate_pi2(g, 60, power=20)
+    judged = [i for i in range(15) if i != 7]  # the middle robot is at the Fiedler vector's zero
+    assert np.allclose(ours[judged], lam[1], rtol=1e-6)
 
 
 def test_wave_step_is_the_matrix_recursion_with_the_degree_term():
