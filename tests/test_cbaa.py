@@ -217,7 +217,7 @@ def test_malformed_bids_are_dropped_and_counted(run):
     result = run(sc)
     reports = result.reports("cbaa")
     for rep in reports.values():
-        assert rep["dropped"] == {"unknown_task": 4, "wrong_length": 8, "malformed": 8}, rep["dropped"]
+        assert rep["dropped"] == {"unknown_task": 4, "wrong_length": 8, "bad_field": 4, "not_a_map": 4}, rep["dropped"]
         assert 3 not in rep["winners"]  # the forger never became a winner
     assert result.passed, result.checks  # the greedy assignment of the three real robots
 

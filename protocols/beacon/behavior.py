@@ -10,9 +10,8 @@ from __future__ import annotations
 
 from collections import Counter
 
+from protocols.beacon.messages import BODIES, KIND, BeaconBody
 from swarmactors import Behavior, Context, Frame
-
-KIND = "BEACON"
 
 
 class Beacon(Behavior):
@@ -29,15 +28,19 @@ class Beacon(Behavior):
         self.delay_sum = 0.0
         self.delay_min: float | None = None
         self.delay_max: float | None = None
+        self.malformed: Counter = Counter()  # undecodable bodies by cause
 
     def on_tick(self, ctx: Context, sensed) -> None:
         if ctx.tick % self.every == 0 and (self.until is None or ctx.tick <= self.until):
             self.sent += 1
-            ctx.broadcast(KIND, [ctx.now, self.payload])
+            BODIES.broadcast(ctx, BeaconBody(ctx.now, self.payload))
 
     def on_frame(self, ctx: Context, frame: Frame) -> None:
+        body = BODIES.decode(frame, self.malformed)
+        if not isinstance(body, BeaconBody):
+            return
         self.heard[frame.src] += 1
-        delay = ctx.now - frame.body[0]
+        delay = ctx.now - body.sent
         self.delay_sum += delay
         if self.delay_min is None or delay < self.delay_min:
             self.delay_min = delay
@@ -46,9 +49,12 @@ class Beacon(Behavior):
 
     def report(self) -> dict:
         n = sum(self.heard.values())
-        return {"sent": self.sent, "heard": n, "senders": len(self.heard),
-                "mean_delay": self.delay_sum / n if n else None, "min_delay": self.delay_min,
-                "max_delay": self.delay_max}
+        rep = {"sent": self.sent, "heard": n, "senders": len(self.heard),
+               "mean_delay": self.delay_sum / n if n else None, "min_delay": self.delay_min,
+               "max_delay": self.delay_max}
+        if self.malformed:
+            rep["malformed"] = dict(self.malformed)
+        return rep
 
     @classmethod
     def metrics(cls, reports: dict[int, dict]) -> dict:

@@ -69,11 +69,13 @@ means s_km > s_im; "higher" means (y_kj, -z_kj) > (y_ij, -z_ij).
 Timestamps are ``ctx.now`` (ticks in lockstep, seconds since the run started
 in realtime); a robot never heard of has time -inf.
 
-Bad input: a BID whose y or z table does not have one entry per task
-(``wrong_length``), whose own task t is not a task index (``unknown_task``),
-or that is otherwise malformed (non-numeric or negative bids, winners that are
-not robot ids, a bid without a winner, t not matching z) is dropped and counted
-in ``dropped`` by reason.
+Bad input: a BID body that does not decode as the typed ``Bid`` (messages.py)
+is dropped under the decoder's cause (``not_a_map``, ``missing_field``,
+``bad_field``: non-numeric or negative bids, winners that are not robot ids);
+one whose y or z table does not have one entry per task (``wrong_length``),
+whose own task t is past the last task (``unknown_task``), or with a bid
+without a winner or t not matching z (``inconsistent``) is dropped too. All
+are counted in ``dropped`` by reason.
 
 Parameters: ``tasks`` = [[x, y], ...] (a task's id is its index), ``at``
 (first tick), ``score`` (``inverse`` 1/(1 + d/scale), ``exp`` exp(-d/scale),

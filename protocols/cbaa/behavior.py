@@ -4,9 +4,11 @@ from __future__ import annotations
 
 from collections import Counter
 
+from protocols.cbaa.messages import BODIES, Bid
 from protocols.cbaa.rules import KIND, NEG_INF, RESET, SCORES, UPDATE, decide, pair, score_row
 from swarmactors import Behavior, Context, Frame
 from swarmactors.behavior import is_int, is_num
+from swarmactors.bodies import UNSET
 
 
 # ------------------------------------------------------------------ the behaviour
@@ -101,10 +103,8 @@ class CBAA(Behavior):
             ctx.tick - self.changed_at > self.quiet_after
         due = self.last_sent is None or ctx.tick - self.last_sent >= self.every
         if self.dirty or (due and not quiet):  # A2
-            body = {"t": self.x, "y": self.y, "z": self.z}
-            if self.mode == "table":
-                body["s"] = [[k, v] for k, v in self.s.items()]
-            ctx.broadcast(KIND, body)
+            seen = [[k, v] for k, v in self.s.items()] if self.mode == "table" else UNSET
+            BODIES.broadcast(ctx, Bid(task=self.x, bids=self.y, winners=self.z, seen=seen))
             self.sent += 1
             self.last_sent = ctx.tick
             self.dirty = False
@@ -129,35 +129,20 @@ class CBAA(Behavior):
             self.dirty = True
 
     def _parse(self, frame: Frame) -> tuple | None:
-        b = frame.body
-        if not isinstance(b, dict) or "y" not in b or "z" not in b:
-            self.dropped["malformed"] += 1
+        b = BODIES.decode(frame, self.dropped)
+        if not isinstance(b, Bid):
             return None
-        y, z, t = b["y"], b["z"], b.get("t")
-        if not isinstance(y, list) or not isinstance(z, list):
-            self.dropped["malformed"] += 1
-            return None
+        y, z, t = b.bids, b.winners, b.task
         if len(y) != self.m or len(z) != self.m:
             self.dropped["wrong_length"] += 1
             return None
-        if t is not None and (not is_int(t) or not 0 <= t < self.m):
+        if t is not None and not t < self.m:
             self.dropped["unknown_task"] += 1
             return None
-        if not all(is_num(v) and v >= 0 for v in y) or not all(w is None or (is_int(w) and w >= 0) for w in z):
-            self.dropped["malformed"] += 1
-            return None
         if any((w is None) != (v == 0) for v, w in zip(y, z, strict=True)) or (t is not None and z[t] != frame.src):
-            self.dropped["malformed"] += 1
+            self.dropped["inconsistent"] += 1
             return None
-        s: dict[int, float] = {}
-        raw = b.get("s", [])
-        if not isinstance(raw, list) or not all(
-            isinstance(e, list) and len(e) == 2 and is_int(e[0]) and is_num(e[1]) for e in raw
-        ):
-            self.dropped["malformed"] += 1
-            return None
-        for k, v in raw:
-            s[k] = float(v)
+        s = {k: float(v) for k, v in ([] if b.seen is UNSET else b.seen)}
         return [float(v) for v in y], z, s
 
     def on_frame(self, ctx: Context, frame: Frame) -> None:

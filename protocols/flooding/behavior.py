@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from collections import Counter
 
+from protocols.flooding.messages import BODIES, KIND, Flood
 from swarmactors import Behavior, Context, Frame
-
-KIND = "FLOOD"
+from swarmactors.bodies import UNSET
 
 
 class Flooding(Behavior):
@@ -33,7 +33,7 @@ class Flooding(Behavior):
         self.forwards: Counter = Counter()
         self.expired = 0
         self.duplicates = 0
-        self.malformed = 0
+        self.malformed: Counter = Counter()  # undecodable FLOOD bodies by cause
         self.originated = False
 
     @staticmethod
@@ -74,15 +74,16 @@ class Flooding(Behavior):
             self._send(ctx, msg, deadline, 1, exclude=())
 
     def on_frame(self, ctx: Context, frame: Frame) -> None:
-        body = frame.body
-        remaining = self.lifetime == "remaining"
-        try:
-            msg, deadline, hop, payload = body["m"], body["rl" if remaining else "dl"], int(body["h"]), body.get("p")
-            if deadline is not None and remaining:
-                deadline = float(deadline) - self._cost(ctx)  # F1r: the hop consumed one time step
-        except (TypeError, KeyError, ValueError):
-            self.malformed += 1
+        body = BODIES.decode(frame, self.malformed)
+        if not isinstance(body, Flood):
             return
+        remaining = self.lifetime == "remaining"
+        msg, deadline, hop, payload = body.msg, body.remaining if remaining else body.deadline, body.hop, body.payload
+        if deadline is UNSET:  # the other lifetime's key: a copy this robot cannot judge
+            self.malformed["missing_field"] += 1
+            return
+        if deadline is not None and remaining:
+            deadline = float(deadline) - self._cost(ctx)  # F1r: the hop consumed one time step
         if deadline is not None and (deadline < -1e-9 if remaining else ctx.now > deadline):  # F1 / F1r
             self.expired += 1
             return
@@ -101,9 +102,10 @@ class Flooding(Behavior):
 
     def _send(self, ctx: Context, msg: str, deadline, hop: int, exclude, payload=None) -> None:
         self.forwards[msg] += 1
-        key = "rl" if self.lifetime == "remaining" else "dl"  # F1r: the lifetime left as the copy leaves
-        ctx.broadcast(KIND, {"m": msg, key: deadline, "h": hop, "p": payload if payload is not None else self.payload},
-                      exclude=exclude)
+        remaining = self.lifetime == "remaining"  # F1r: the lifetime left as the copy leaves
+        BODIES.broadcast(ctx, Flood(msg=msg, deadline=UNSET if remaining else deadline,
+                                    remaining=deadline if remaining else UNSET, hop=hop,
+                                    payload=payload if payload is not None else self.payload), exclude=exclude)
 
     def report(self) -> dict:
         return {
@@ -113,7 +115,7 @@ class Flooding(Behavior):
             "best_hop": self.best_hop,
             "expired": self.expired,
             "duplicates": self.duplicates,
-            "malformed": self.malformed,
+            "malformed": dict(self.malformed),
         }
 
     @classmethod

@@ -7,14 +7,11 @@ from collections import Counter, OrderedDict
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
+from protocols.stigmergy.messages import BODIES, DIGEST, KINDS, PUT, QUERY, Digest, Put, Query
 from swarmactors import Context, Frame
 from swarmactors.behavior import is_int
 from swarmactors.plugins import Rules
 
-PUT = "VS_PUT"
-QUERY = "VS_QUERY"
-DIGEST = "VS_DIGEST"
-KINDS = (PUT, QUERY, DIGEST)
 SEEN_QUERIES = 4096  # unknown-key queries remembered for Q1
 
 
@@ -223,15 +220,16 @@ class Stigmergy:
             for sid, table in self.tables.items():
                 if table.entries:  # A1
                     digest = [[k, e.ts, e.writer] for k, e in table.entries.items()]
-                    ctx.broadcast(DIGEST, [sid, digest])
+                    BODIES.broadcast(ctx, Digest(sid, digest))
                     self.sent[DIGEST] += 1
         out, self._out = self._out, OrderedDict()
         for (sid, key), (kind, e, dst, qid) in out.items():
-            body = [sid, key, e.value, e.ts, e.writer] if kind == PUT else [sid, key, e.value, e.ts, e.writer, qid]
+            body = Put(sid, key, e.value, e.ts, e.writer) if kind == PUT else \
+                Query(sid, key, e.value, e.ts, e.writer, qid)
             if dst is None:
-                ctx.broadcast(kind, body)
+                BODIES.broadcast(ctx, body)
             else:
-                ctx.send(dst, kind, body)
+                BODIES.send(ctx, dst, body)
             self.sent[kind] += 1
 
     # -- incoming
@@ -240,47 +238,23 @@ class Stigmergy:
         if frame.kind not in KINDS:
             return False
         self.received[frame.kind] += 1
-        if frame.kind == DIGEST:
-            self._on_digest(frame)
+        body = BODIES.decode(frame, self.malformed)
+        if body is None:
             return True
-        parsed = self._parse(frame)
-        if parsed is None:
-            return True
-        sid, key, remote, qid = parsed
-        table = self.tables.get(sid)
+        table = self.tables.get(body.sid)
         if table is None:
             self.foreign += 1  # not a table of this robot: ignored
             return True
-        local = table.entries.get(key)
-        if frame.kind == PUT:
-            self._on_put(table, key, local, remote)
+        if isinstance(body, Digest):
+            self._on_digest(frame.src, table, body)
+            return True
+        local = table.entries.get(body.key)
+        remote = Entry(body.value, body.ts, body.writer)
+        if isinstance(body, Put):
+            self._on_put(table, body.key, local, remote)
         else:
-            self._on_query(table, key, local, remote, qid)
+            self._on_query(table, body.key, local, remote, body.qid)
         return True
-
-    def _bad(self, reason: str) -> None:
-        self.malformed[reason] += 1
-
-    def _parse(self, frame: Frame) -> tuple | None:
-        body = frame.body
-        n = 5 if frame.kind == PUT else 6
-        if not isinstance(body, list) or len(body) != n:
-            return self._bad("shape")
-        sid, key, value, ts, writer = body[:5]
-        if not _is_key(sid):
-            return self._bad("sid")
-        if not _is_key(key):
-            return self._bad("key")
-        if not is_int(ts) or ts < (1 if frame.kind == PUT else 0):
-            return self._bad("timestamp")
-        if not is_int(writer) or writer < 0:
-            return self._bad("writer")
-        qid = body[5] if n == 6 else 0
-        if n == 6 and (not is_int(qid) or qid < 0):
-            return self._bad("query_id")
-        if ts == 0 and value is not None:
-            return self._bad("timestamp")
-        return sid, key, Entry(value, ts, writer), qid
 
     def _on_put(self, table: Table, key: Any, local: Entry | None, remote: Entry) -> None:
         if local is None or remote.ts > local.ts:  # P1: unknown key or newer: store and relay
@@ -325,35 +299,22 @@ class Stigmergy:
                 table.on_conflict_lost(key, local)
         self.enqueue(PUT, table.sid, key, won)  # P2: propagate the resolution
 
-    def _on_digest(self, frame: Frame) -> None:
-        body = frame.body
-        if not isinstance(body, list) or len(body) != 2 or not _is_key(body[0]) or not isinstance(body[1], list):
-            return self._bad("digest")
-        sid, items = body
-        table = self.tables.get(sid)
-        if table is None:
-            self.foreign += 1
-            return None
-        remote: dict[Any, tuple[int, int]] = {}
-        for item in items:
-            if (not isinstance(item, list) or len(item) != 3 or not _is_key(item[0]) or not is_int(item[1])
-                    or item[1] < 1 or not is_int(item[2]) or item[2] < 0):
-                return self._bad("digest")
-            remote[item[0]] = (item[1], item[2])
+    def _on_digest(self, src: int, table: Table, digest: Digest) -> None:
+        sid = table.sid
+        remote: dict[Any, tuple[int, int]] = {key: (ts, writer) for key, ts, writer in digest.items}
         for key, (ts, writer) in remote.items():
             local = table.entries.get(key)
             if local is None or ts > local.ts:  # A2: sender newer: ask it (addressed query)
                 if local is None:
                     self.query_counter += 1
-                    self.enqueue(QUERY, sid, key, Entry(None, 0, self.id), dst=frame.src, qid=self.query_counter)
+                    self.enqueue(QUERY, sid, key, Entry(None, 0, self.id), dst=src, qid=self.query_counter)
                 else:
-                    self.enqueue(QUERY, sid, key, local, dst=frame.src)
+                    self.enqueue(QUERY, sid, key, local, dst=src)
             elif local.ts > ts or local.writer != writer:  # A2: local newer or concurrent: offer ours
                 self.enqueue(PUT, sid, key, local)
         for key, local in table.entries.items():
             if key not in remote:  # A2: the sender lacks the key: offer ours
                 self.enqueue(PUT, sid, key, local)
-        return None
 
     # -- reporting
     def counters(self) -> dict:
