@@ -95,3 +95,16 @@ def test_a_family_contributes_a_subcommand_and_the_core_imports_no_protocol(caps
     parser = build_parser()
     args = parser.parse_args(["schedule", "tasks.toml", "--no-plot"])
     assert args.handler.__module__ == "protocols.tsc.schedule_cli"
+
+
+def test_reading_every_family_imports_no_oracle_nor_the_scenario_loader():
+    """A robot host reads every family's suite.py to know the behaviour names; that must stay light."""
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom swarmactors.plugins import BEHAVIORS, available\navailable(BEHAVIORS)\n"
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in {'networkx', 'scipy', 'matplotlib'}"
+            " or m.startswith(('swarmactors.conformance', 'swarmactors.scenario', 'protocols.tsc.schedule'))"
+            " or m.endswith('.oracle')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout

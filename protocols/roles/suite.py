@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from protocols.roles.scenarios import patrol_scenario
 from swarmactors.family import Case, Family
 
 LOSSLESS = [{"use": "roles.leader"}, {"use": "roles.chain"}, {"use": "roles.gabriel", "grace": 2},
@@ -10,6 +9,8 @@ LOSSLESS = [{"use": "roles.leader"}, {"use": "roles.chain"}, {"use": "roles.gabr
 
 
 def _patrol(name: str, n: int, seed: int, ticks: int, checks: list[dict], **kw) -> Case:
+    from protocols.roles.scenarios import patrol_scenario  # the scenario loader: when cases are built, not on hosts
+
     sc = patrol_scenario(n, seed, ticks, checks=[], **kw)
     sc["run"].pop("name", None)
     return Case(f"roles/{name}", sc, checks)
