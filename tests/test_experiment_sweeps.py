@@ -1,7 +1,12 @@
-"""The paper experiments written as sweep files (benchmarks/*.toml): each plans, and its trial and post run."""
+"""The paper experiments written as sweep files: each plans, and its trial and post run.
+
+A family's experiments live in its wing (protocols/<family>/experiments/*.toml, the trial and post functions named
+by their full package path); the ones not moved yet are in benchmarks/*.toml.
+"""
 
 from __future__ import annotations
 
+import importlib
 import sys
 from pathlib import Path
 
@@ -9,8 +14,10 @@ import pytest
 
 from swarmactors.sweep import plan, read_spec, returned_values, run_sweep
 
-BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
-SWEEP_FILES = sorted(p for p in BENCH.glob("*.toml") if read_spec(p) is not None)
+ROOT = Path(__file__).resolve().parents[1]
+BENCH = ROOT / "benchmarks"
+WING_FILES = sorted(ROOT.glob("protocols/*/experiments/*.toml"))
+SWEEP_FILES = sorted(p for p in BENCH.glob("*.toml") if read_spec(p) is not None) + WING_FILES
 
 
 @pytest.fixture(autouse=True)
@@ -22,11 +29,41 @@ def test_there_are_experiment_sweep_files():
     assert {p.name for p in SWEEP_FILES} >= {"tsc-table2.toml", "lambda2-fig2.toml"}
 
 
-@pytest.mark.parametrize("path", SWEEP_FILES, ids=lambda p: p.name)
+@pytest.mark.parametrize("path", SWEEP_FILES, ids=lambda p: str(p.relative_to(ROOT)))
 def test_each_experiment_sweep_file_plans(path):
     sw = plan(path, [], [], None, None)  # loads the trial and post functions, validates the grid
     assert sw.trial_fn or sw.scenario.exists()
     assert sw.post and len(sw.all_trials()) >= 2
+
+
+def test_every_family_wing_with_experiments_has_them():
+    wings = {p.parent.parent.name for p in WING_FILES}
+    assert wings >= {"relays", "roles", "biconnectivity", "stigmergy", "cbaa", "leader_follower", "secs"}
+
+
+@pytest.mark.parametrize("path", WING_FILES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_a_wing_sweep_file_names_its_own_package(path, monkeypatch):
+    """Trial and post are ``protocols.<family>.experiments.<module>:<function>``, importable without sys.path help."""
+    monkeypatch.setattr(sys, "path", [p for p in sys.path if Path(p or ".").resolve() not in (BENCH, path.parent)])
+    spec = read_spec(path)
+    family = path.parent.parent.name
+    for key in ("trial", "post"):
+        module, _, name = spec[key].partition(":")
+        assert module.startswith(f"protocols.{family}.experiments."), (key, spec[key])
+        assert callable(getattr(importlib.import_module(module), name))
+
+
+@pytest.mark.parametrize("wing", sorted({p.parent for p in WING_FILES}), ids=lambda p: p.parent.name)
+def test_a_wing_experiments_folder_is_a_package_with_its_commands(wing):
+    """experiments/ is a package, and its README gives the command of each script and each sweep file."""
+    assert (wing / "__init__.py").is_file()
+    readme = (wing / "README.md").read_text()
+    package = f"protocols.{wing.parent.name}.experiments"
+    for script in wing.glob("*.py"):
+        if script.name != "__init__.py":
+            assert f"python -m {package}.{script.stem}" in readme, script.name
+    for toml in wing.glob("*.toml"):
+        assert f"swarmactors sweep {toml.relative_to(ROOT)}" in readme, toml.name
 
 
 @pytest.mark.slow
