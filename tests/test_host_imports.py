@@ -2,6 +2,7 @@
 
 Nor the ``[foxglove]`` extra (foxglove-sdk, mcap): the MCAP export and the live Foxglove feed run beside the world.
 Nor the ``[rl]`` extra (pettingzoo, gymnasium): the ``rl`` behaviour loads without it (swarmactors/rl/behavior.py).
+Nor a family's experiments (``protocols/<family>/experiments``: the paper figures' scripts, matplotlib and all).
 
 The world process may import scipy (KD-trees); a robot host process (K >= 1) runs behaviours only. Every
 built-in behaviour runs in some shipped scenario; each is run for a few ticks with one host process, and a
@@ -23,7 +24,8 @@ SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 SHIPPED = ["beacon", "biconnectivity-check", "cbaa", "flooding", "roles-aat", "roles-patrol", "stigmergy"]
 ORACLE = ("sorted(m for m in sys.modules"
           " if m.split('.')[0] in {'networkx', 'scipy', 'foxglove', 'mcap', 'pettingzoo', 'gymnasium'}"
-          " or m.startswith('swarmactors.conformance'))")
+          " or m.startswith('swarmactors.conformance')"
+          " or (m.startswith('protocols.') and '.experiments' in m))")  # a family's paper experiments
 
 
 def test_the_behavior_api_and_every_builtin_behaviour_load_without_the_oracle():

@@ -32,7 +32,7 @@ ALL_CHECKS = [{"use": "leader_follower.spanning_tree"}, {"use": "leader_follower
 RANDOM_CHECKS = [{"use": "leader_follower.spanning_tree", "require_all": False}] + ALL_CHECKS[1:]
 
 # §5.1: the paper prints neither the start nor the leader's path. This start (every follower has an agent in
-# (ρ″, ρ′) and none within ρ″: Assumption 1) and meander were chosen by benchmarks/leader_follower_search.py:
+# (ρ″, ρ′) and none within ρ″: Assumption 1) and meander were chosen by protocols/leader_follower/experiments/search.py:
 # random_configuration(10, 42, rows=TABLE1, spread=3.0, edge=0.8), the first of 42 searched seeds (dt = 0.1 s)
 # where the prior method collides and the proposed method passes every check; confirmed at 0.01 s.
 SIM_LEADER = [0.0, 0.0]
@@ -41,7 +41,7 @@ SIM_FOLLOWERS = [[-4.5291, -0.1736], [-4.552, -3.6037], [-9.6114, -3.3373], [-7.
 SIM_WAYPOINTS = [[2.3677, -0.4077], [4.2474, 0.925], [6.6359, -0.5661], [8.0058, -2.8786], [10.2752, -2.7159],
                  [11.5504, -3.9768]]
 # §5.2: four followers around the leader (Fig. 10's layout is not printed). Chosen from 40 random starts
-# and meanders satisfying Assumption 1 (benchmarks/leader_follower_paper.py, seed 19 of the search): every
+# and meanders satisfying Assumption 1 (protocols/leader_follower/experiments/paper.py, seed 19 of the search): every
 # check passes and the one target switch is F3's, from the leader to F1, as in the paper.
 EXP_LEADER = [0.0, 0.0]
 EXP_FOLLOWERS = [[-0.408, -0.869], [-1.376, -0.578], [-0.491, 0.82], [-1.32, 0.828]]

@@ -1,0 +1,294 @@
+"""Swarm Relays, Fig. 6 (002 Sec. V): time factor in 12 conditions, and recovery after consecutive failures.
+
+Time factor (middle/top): 2-4 targets on a circle of radius 10 m around the root, with and without a
+C-shaped obstacle on each target's ray (5 m out, its cup open towards the root), with and without WP
+prediction. Time factor = (tick the last worker reaches its target - tick the targets are written) * dt,
+divided by the traversal time (the longest planned path / v_max). N = 9 T + 4 robots (9 per chain, 4 spare),
+clustered at the root with a random jitter per run (seed).
+
+Failure ratio (bottom): one target 10 m away (7 links, 6 networkers); after the chain is built, f = 1..5
+consecutive networkers (counted from the worker's parent) are killed; recovery time = relays.healed's value
+(kill -> chain whole again, the 5 s link-failure time included), and its ratio to the traversal time.
+
+    python -m protocols.relays.experiments.fig6 --runs 4 --workers 2    # results/fig6.json
+    python -m protocols.relays.experiments.fig6 --plot protocols/relays/experiments/results/fig6.json
+
+The same experiment as two sweeps (one trial a run; a failure trial builds its chain first, then kills f
+networkers), locally or on a Dask cluster; the post step draws relays_fig6.png beside trials.csv:
+
+    swarmactors sweep protocols/relays/experiments/fig6.toml [--cluster tcp://SCHEDULER:8786] [--trials 4]
+    swarmactors sweep protocols/relays/experiments/fig6-failures.toml [--cluster ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import multiprocessing as mp
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from protocols.relays.suite import relays_scenario
+
+RADIUS = 10.0
+
+
+def c_shape(center: list[float], angle: float, size: float = 3.0, thickness: float = 0.4) -> list[dict]:
+    """A C of outer side ``size`` centred at ``center``, its open side facing the direction angle + pi."""
+    ca, sa = math.cos(angle), math.sin(angle)
+
+    def box(x0, y0, x1, y1):  # in the C's frame (x along the ray), rotated into the world
+        pts = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+        return {"xy": [[round(center[0] + ca * x - sa * y, 6), round(center[1] + sa * x + ca * y, 6)]
+                       for x, y in pts]}
+
+    h, t = size / 2, thickness
+    return [box(h - t, -h, h, h), box(-h, h - t, h - t, h), box(-h, -h, h - t, -h + t)]
+
+
+def jittered(n: int, seed: int, spacing: float = 0.55) -> list[list[float]]:
+    """Place the root at the origin and n - 1 robots on the grid points nearest to it (a disc).
+
+    Each robot is moved by up to 0.1 m at random: the run's random initialisation.
+    """
+    rng = np.random.default_rng([seed, n, 6])
+    k = int(math.ceil(math.sqrt(n))) + 1
+    grid = sorted(((i * spacing, j * spacing) for i in range(-k, k + 1) for j in range(-k, k + 1) if (i, j) != (0, 0)),
+                  key=lambda p: (round(math.hypot(*p), 6), p))
+    return [[0.0, 0.0]] + [[round(x + rng.uniform(-0.1, 0.1), 4), round(y + rng.uniform(-0.1, 0.1), 4)]
+                           for x, y in grid[: n - 1]]
+
+
+def condition(targets: int, obstacle: bool, wp: bool, seed: int, ticks: int) -> dict:
+    angles = [2 * math.pi * k / targets for k in range(targets)]
+    tg = [[round(RADIUS * math.cos(a), 4), round(RADIUS * math.sin(a), 4)] for a in angles]
+    obstacles = [o for a in angles for o in c_shape([5.0 * math.cos(a), 5.0 * math.sin(a)], a)] if obstacle else None
+    n = 9 * targets + 4
+    return relays_scenario(n, tg, ticks=ticks, seed=seed, obstacles=obstacles, wp=wp, positions=jittered(n, seed),
+                           checks=[{"use": "relays.reached", "slack": 100.0}, {"use": "relays.links_within_db"}])
+
+
+def _run(job: dict) -> dict:
+    from swarmactors.launcher import run
+
+    t0 = time.time()
+    with tempfile.TemporaryDirectory() as tmp:
+        r = run(job["scenario"], out=tmp)
+        dt = r["scenario"]["run"]["dt"]
+        reports = r.reports("relays")
+        paths = [rep["path"] for rep in reports.values() if rep.get("path")]
+        longest = max((sum(math.dist(a[:2], b[:2]) for a, b in zip(p, p[1:], strict=False)) for p in paths),
+                      default=None)
+        reached = [c for c in r.checks if c["name"] == "relays.reached"]
+        healed = [c for c in r.checks if c["name"] == "relays.healed"]
+        out = {**{k: v for k, v in job.items() if k != "scenario"}, "wall_s": round(time.time() - t0, 1),
+               "all_reached": all(c["passed"] for c in reached), "path_m": longest,
+               "last_reached_s": max((c["value"] for c in reached if c["value"] is not None), default=None),
+               "links_ok": all(c["passed"] for c in r.checks if c["name"] == "relays.links_within_db"),
+               "recovery_s": healed[0]["value"] if healed else None,
+               "chain": _chain(reports), "dt": dt}
+    at = 1 * dt  # the root writes the targets at tick 1
+    if out["all_reached"] and out["last_reached_s"] is not None and longest:
+        out["time_factor"] = (out["last_reached_s"] - at) / (longest / 0.5)
+    return out
+
+
+def _chain(reports: dict) -> list[int]:
+    workers = [r for r, rep in reports.items() if rep["role"] == "worker"]
+    if len(workers) != 1:
+        return []
+    out = [workers[0]]
+    while reports[out[-1]]["role"] != "root" and len(out) < 100:
+        out.append(reports[out[-1]]["parent"])
+    return out
+
+
+def mean_ci(xs: list[float]) -> tuple[float, float]:
+    """Mean and half-width of its 95 % confidence interval (Student t)."""
+    from scipy import stats
+
+    xs = [x for x in xs if x is not None]
+    if len(xs) < 2:
+        return (xs[0] if xs else math.nan), math.nan
+    return float(np.mean(xs)), float(stats.t.ppf(0.975, len(xs) - 1) * np.std(xs, ddof=1) / math.sqrt(len(xs)))
+
+
+def diff_ci(a: list[float], b: list[float]) -> tuple[float, float, float]:
+    """Mean of a - b, the half-width of its 95 % CI (Welch) and the p-value of Welch's t-test."""
+    from scipy import stats
+
+    a, b = [x for x in a if x is not None], [x for x in b if x is not None]
+    if len(a) < 2 or len(b) < 2:
+        return math.nan, math.nan, math.nan
+    va, vb = np.var(a, ddof=1) / len(a), np.var(b, ddof=1) / len(b)
+    se = math.sqrt(va + vb)
+    dof = (va + vb) ** 2 / (va ** 2 / (len(a) - 1) + vb ** 2 / (len(b) - 1)) if se > 0 else 1
+    p = float(stats.ttest_ind(a, b, equal_var=False).pvalue) if se > 0 else math.nan
+    return float(np.mean(a) - np.mean(b)), float(stats.t.ppf(0.975, dof) * se), p
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--runs", type=int, default=35, help="runs per condition (the paper: 35)")
+    ap.add_argument("--fail-runs", type=int, default=None, help="runs per failure factor (default: --runs)")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--out", default=str(Path(__file__).resolve().parent / "results" / "fig6.json"))
+    ap.add_argument("--only", choices=["tf", "fail"], default=None)
+    ap.add_argument("--plot", default=None, help="plot a results file to docs/img/relays_fig6.png and stop")
+    args = ap.parse_args()
+    if args.plot:
+        plot(json.loads(Path(args.plot).read_text()))
+        return
+    jobs = []
+    if args.only != "fail":
+        for targets in (2, 3, 4):
+            for obstacle in (False, True):
+                for wp in (False, True):
+                    for seed in range(args.runs):
+                        ticks = 500 if obstacle else 450
+                        jobs.append({"kind": "tf", "targets": targets, "obstacle": obstacle, "wp": wp,
+                                     "seed": seed, "scenario": condition(targets, obstacle, wp, seed, ticks)})
+    results = []
+    with mp.get_context("spawn").Pool(args.workers) as pool:
+        for i, res in enumerate(pool.imap(_run, jobs)):
+            results.append(res)
+            print(i + 1, len(jobs), {k: res[k] for k in ("targets", "obstacle", "wp", "seed", "time_factor",
+                                                           "wall_s") if k in res}, flush=True)
+        if args.only != "tf":
+            results += failures(pool, args.fail_runs or args.runs)
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.out).write_text(json.dumps(results, indent=1))
+    summarise(results)
+
+
+def failures(pool, runs: int) -> list[dict]:
+    """Build one 10 m chain per seed (12 robots + 2 spare), then kill f = 1..5 consecutive networkers."""
+    n, built = 14, 330
+    base = [{"kind": "base", "seed": s, "scenario": relays_scenario(n, [[RADIUS, 0.0]], ticks=built, seed=s,
+                                                                   positions=jittered(n, s), checks=[])}
+            for s in range(runs)]
+    bases = pool.map(_run, base)
+    jobs = []
+    for b in bases:
+        chain = b["chain"]  # worker, ..., root
+        nets = chain[1:-1]
+        for f in range(1, 6):
+            if len(nets) < f:
+                continue
+            sc = relays_scenario(n, [[RADIUS, 0.0]], ticks=built + 400, seed=b["seed"],
+                                 positions=jittered(n, b["seed"]), kills=[(built, nets[:f])],
+                                 checks=[{"use": "relays.healed"}, {"use": "relays.reached", "slack": 100.0}])
+            jobs.append({"kind": "fail", "seed": b["seed"], "failed": f, "networkers": len(nets), "scenario": sc})
+    out = []
+    for res in pool.imap(_run, jobs):
+        print("fail", {k: res[k] for k in ("seed", "failed", "networkers", "recovery_s", "wall_s")}, flush=True)
+        out.append(res)
+    return out
+
+
+def summarise(results: list[dict]) -> None:
+    tf = [r for r in results if r["kind"] == "tf"]
+    for targets in (2, 3, 4):
+        for obstacle in (False, True):
+            cells = {wp: [r.get("time_factor") for r in tf if (r["targets"], r["obstacle"], r["wp"])
+                          == (targets, obstacle, wp)] for wp in (False, True)}
+            if not cells[False]:
+                continue
+            m0, h0 = mean_ci(cells[False])
+            m1, h1 = mean_ci(cells[True])
+            d, hd, p = diff_ci(cells[True], cells[False])
+            print(f"T={targets} obstacle={obstacle}: no WP {m0:.3f} ± {h0:.3f}, WP {m1:.3f} ± {h1:.3f}, "
+                  f"WP - no WP = {d:+.3f} ± {hd:.3f} ({100 * d / m0:+.1f} %), p = {p:.3f}; "
+                  f"failed runs {sum(x is None for x in cells[False] + cells[True])}")
+    fl = [r for r in results if r["kind"] == "fail"]
+    for f in range(1, 6):
+        xs = [r["recovery_s"] for r in fl if r["failed"] == f]
+        if xs:
+            m, h = mean_ci(xs)
+            print(f"failed {f}: recovery {m:.2f} ± {h:.2f} s over {len([x for x in xs if x is not None])} runs")
+
+
+def sweep_trial(params: dict, *, seed: int, trial: int) -> dict:
+    """One time-factor run of ``fig6.toml``: condition (targets, obstacle, wp), jitter ``trial``."""
+    targets, obstacle, wp = int(params["targets"]), bool(params["obstacle"]), bool(params["wp"])
+    ticks = 500 if obstacle else 450
+    return _run({"kind": "tf", "targets": targets, "obstacle": obstacle, "wp": wp, "seed": trial,
+                 "scenario": condition(targets, obstacle, wp, trial, ticks)})
+
+
+def sweep_failure_trial(params: dict, *, seed: int, trial: int) -> dict:
+    """One run of ``fig6-failures.toml``: build chain ``trial`` (as ``failures``), kill f networkers.
+
+    The chain is built by its own run first (the same run for every f), so a trial is self-contained.
+    """
+    n, built, f = 14, 330, int(params["failed"])
+    base = _run({"kind": "base", "seed": trial, "scenario": relays_scenario(
+        n, [[RADIUS, 0.0]], ticks=built, seed=trial, positions=jittered(n, trial), checks=[])})
+    nets = base["chain"][1:-1]
+    if len(nets) < f:
+        return {"kind": "fail", "seed": trial, "failed": f, "networkers": len(nets), "recovery_s": None,
+                "skipped": "chain too short"}
+    sc = relays_scenario(n, [[RADIUS, 0.0]], ticks=built + 400, seed=trial, positions=jittered(n, trial),
+                         kills=[(built, nets[:f])],
+                         checks=[{"use": "relays.healed"}, {"use": "relays.reached", "slack": 100.0}])
+    return _run({"kind": "fail", "seed": trial, "failed": f, "networkers": len(nets), "scenario": sc})
+
+
+def sweep_figures(csv_path: Path, out_dir: Path) -> list[Path]:
+    """The sweeps' post step: Fig. 6's panels (those the sweep measured) and the printed summary."""
+    from swarmactors.sweep import returned_values
+
+    results = returned_values(csv_path)
+    summarise(results)
+    path = Path(out_dir) / "relays_fig6.png"
+    plot(results, path)
+    return [path]
+
+
+def plot(results: list[dict], path: Path = Path("docs/img/relays_fig6.png")) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    tf = [r for r in results if r["kind"] == "tf"]
+    ax = axes[0]
+    for k, (obstacle, wp) in enumerate([(False, False), (False, True), (True, False), (True, True)]):
+        xs, ms, hs = [], [], []
+        for targets in (2, 3, 4):
+            m, h = mean_ci([r.get("time_factor") for r in tf if (r["targets"], r["obstacle"], r["wp"])
+                            == (targets, obstacle, wp)])
+            xs.append(targets + (k - 1.5) * 0.08)
+            ms.append(m)
+            hs.append(h)
+        ax.errorbar(xs, ms, yerr=hs, marker="o", capsize=3,
+                    label=f"{'C obstacle' if obstacle else 'open'}, {'WP' if wp else 'no WP'}")
+    ax.set_xlabel("targets")
+    ax.set_ylabel("time factor (build time / traversal time)")
+    ax.set_xticks([2, 3, 4])
+    ax.legend(fontsize=8)
+    ax.set_title("Fig. 6 middle/top (ours, mean ± 95 % CI)")
+    ax = axes[1]
+    fl = [r for r in results if r["kind"] == "fail"]
+    fs = sorted({r["failed"] for r in fl})
+    ms, hs = zip(*[mean_ci([r["recovery_s"] for r in fl if r["failed"] == f]) for f in fs], strict=False) \
+        if fs else ([], [])
+    ax.errorbar(fs, ms, yerr=hs, marker="o", capsize=3)
+    nets = [r["networkers"] for r in fl if r.get("networkers") is not None]
+    span = f" (chains of {min(nets)}-{max(nets)} networkers at the kill)" if nets else ""
+    ax.set_xlabel(f"consecutive networkers failed{span}")
+    ax.set_ylabel("recovery time (s), 5 s link-failure time included")
+    ax.set_title("Fig. 6 bottom (ours)")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    main()
