@@ -26,8 +26,8 @@ A robot host loads this module: msgspec only.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, MutableMapping
 import sys
+from collections.abc import Iterable, MutableMapping
 from typing import Annotated, Any, ClassVar, Union
 
 import msgspec
