@@ -228,10 +228,10 @@ def test_bad_role_requests_are_refused_and_counted(run):
     assert_checks(result)
     reps = result.reports("roles")
     for rid, rep in reps.items():
-        assert rep["refused"] == {"unknown_role": 1, "not_neighbour": 1, "malformed": 1}, (rid, rep["refused"])
+        assert rep["refused"] == {"unknown_role": 1, "not_neighbour": 1, "not_a_map": 1}, (rid, rep["refused"])
         assert all(a["from"] != 10 for a in rep["accepted"])
     assert {r: rep["roles"] for r, rep in reps.items()} == {r: rep["roles"] for r, rep in calm.items()}
-    assert result["metrics"]["roles"]["refused"] == {"unknown_role": 10, "not_neighbour": 10, "malformed": 10}
+    assert result["metrics"]["roles"]["refused"] == {"unknown_role": 10, "not_neighbour": 10, "not_a_map": 10}
 
 
 @pytest.mark.parametrize("params,fragment", [

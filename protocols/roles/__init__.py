@@ -11,8 +11,9 @@ Algorithm 1 (local leader i, parent p, d = |x_i - x_p|), made safe under loss
      d < eta_b d_c and p is not the base station: request p (RETRACT). The ROLE_REQUEST carries the
      leadership epoch e + 1, the switch tick T = now + switch_delay, the goal and its index.
   H2 the requester re-sends the request every tick until it is answered; the candidate answers every copy
-     with ROLE_ACK (or ROLE_NACK with a reason, counted in ``refused``: malformed, unknown_role,
-     not_requestable, not_neighbour, base_station, role_conflict, stale).
+     with ROLE_ACK (or ROLE_NACK with a reason, counted in ``refused``: unknown_role, not_requestable,
+     not_neighbour, base_station, role_conflict, stale; a request that does not decode is refused unanswered,
+     under the decoder's cause).
   H3 the candidate switches at tick max(T, arrival of the first request): explorer -> local leader (its
      parent: the requester) or repeater -> local leader (the requester becomes one of its explorers).
   H4 the requester switches at max(T, first evidence), evidence being the ACK or a STATE / flood from the

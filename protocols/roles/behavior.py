@@ -16,10 +16,27 @@ import math
 import time
 from typing import Any
 
+import msgspec
 import numpy as np
 
+from protocols.roles import messages as msg
 from protocols.roles.aat import MODES, PROPOSED, Connections
-from protocols.roles.params import RoleParams, is_point
+from protocols.roles.messages import (
+    ACK,
+    ARRIVED,
+    BODIES,
+    CONNECT,
+    DISCONNECT,
+    HELP,
+    KINDS,
+    LL_INFO,
+    NACK,
+    REQUEST,
+    STATE,
+    TARGET,
+    WHERE,
+)
+from protocols.roles.params import RoleParams
 from protocols.roles.rules import (
     BS,
     EX,
@@ -27,7 +44,6 @@ from protocols.roles.rules import (
     LL,
     REMEMBERED,
     RETRACT,
-    ROLES,
     RP,
     Candidate,
     answer_request,
@@ -41,23 +57,12 @@ from protocols.roles.rules import (
 )
 from swarmactors import Behavior, Context, Frame
 from swarmactors.behavior import is_int, is_num
+from swarmactors.bodies import UNSET
 
 # ------------------------------------------------------------------ roles and message kinds
 ROLE_CODE = {BS: 0, RP: 1, LL: 2, EX: 3}
 LINKABLE = (LL, EX)
 
-STATE = "RS_STATE"  # every tick, to the robots in A_i: role, position, velocity, control input, |A_i|, epoch
-LL_INFO = "RS_LL"  # the local leader's u_LL and x_LL, by message-expiration flooding (Sec. III-C)
-CONNECT = "RS_CONNECT"  # Algorithm 2: i asks j to add the link (j complies if its role allows)
-DISCONNECT = "RS_DISCONNECT"  # Algorithm 2 (or a role refusal): j drops the link
-REQUEST = "ROLE_REQUEST"  # Algorithm 1: become the local leader (epoch, switch tick, goal)
-ACK = "ROLE_ACK"
-NACK = "ROLE_NACK"
-TARGET = "RS_TARGET"  # base station -> chain -> local leader: the current target
-ARRIVED = "RS_ARRIVED"  # local leader -> chain -> base station
-HELP = "RS_HELP"  # a disconnected explorer asks a repeater / the base station for its child's location
-WHERE = "RS_WHERE"  # the answer: the child's id, role and position
-KINDS = (STATE, LL_INFO, CONNECT, DISCONNECT, REQUEST, ACK, NACK, TARGET, ARRIVED, HELP, WHERE)
 
 
 
@@ -144,7 +149,7 @@ class RoleSwitching(Behavior, _Timed):
         self.cpu = 0.0
         self.cpu_role: dict[str, float] = {}
         self.frame_cpu = 0.0
-        self.malformed = 0
+        self.malformed: dict[str, int] = {}  # frames that did not decode, by cause
         self.stall = 0
 
     # ---------------------------------------------------------- parameters
@@ -183,7 +188,7 @@ class RoleSwitching(Behavior, _Timed):
             return ids, self._sensed_pos
         return [ids[k] for k in idx], self._sensed_pos[idx]
 
-    def _send_to(self, ctx: Context, kind: str, body: Any, dsts: set[int]) -> None:
+    def _send_to(self, ctx: Context, body: Any, dsts: set[int]) -> None:
         """Send to the robots ``dsts`` only.
 
         Addressed frames to one or two, else one radio broadcast with every other robot in range excluded.
@@ -192,9 +197,9 @@ class RoleSwitching(Behavior, _Timed):
             return
         if len(dsts) <= 2 or self.d_s < self.d_c:  # robots beyond d_s but in radio range cannot be excluded
             for d in sorted(dsts):
-                ctx.send(d, kind, body)
+                BODIES.send(ctx, d, body)
             return
-        ctx.broadcast(kind, body, exclude=[r for r in self._sensed_ids if r not in dsts])
+        BODIES.broadcast(ctx, body, exclude=[r for r in self._sensed_ids if r not in dsts])
 
     def _where(self, rid: int | None) -> np.ndarray | None:
         """Return a robot's position: sensed this tick if it is in range, else from its last STATE."""
@@ -204,7 +209,7 @@ class RoleSwitching(Behavior, _Timed):
         if k is not None:
             return self._sensed_pos[k]
         st = self.nbr.get(rid)
-        return np.array(st["p"]) if st else None
+        return np.array(st.pos) if st else None
 
     def _key(self) -> tuple[int, int]:
         return (self.epoch, self.id)
@@ -251,24 +256,18 @@ class RoleSwitching(Behavior, _Timed):
         self.received += 1
         kind = frame.kind
         self.received_kind[kind] = self.received_kind.get(kind, 0) + 1
-        try:
-            ok = _HANDLERS[kind](self, ctx, frame.src, frame.body)
-        except (TypeError, KeyError, ValueError, IndexError, AttributeError):
-            ok = False
-        if ok is False:
-            self.malformed += 1
+        # a request that does not decode is refused (and not answered); any other kind is counted in malformed
+        body = BODIES.decode(frame, self.refused if kind == REQUEST else self.malformed)
+        if body is not None:
+            _HANDLERS[kind](self, ctx, frame.src, body)
         self.frame_cpu += time.perf_counter() - t0  # charged to the role at the next tick
 
-    def _on_state(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (type(b) is dict and b.get("r") in ROLES and is_point(b.get("p")) and is_point(b.get("u"))
-                and type(b.get("n")) is int and type(b.get("e")) is int):
-            return False
+    def _on_state(self, ctx: Context, src: int, b: msg.State) -> None:
         self.nbr[src] = b
-        role = b["r"]
+        role = b.role
         self.known_role[src] = role
         if role == LL:
-            pa = b.get("pa")
-            self._heard_leader(ctx, src, b["e"], pa if type(pa) is int else None)
+            self._heard_leader(ctx, src, b.epoch, b.parent)
         if self.role in LINKABLE:
             if role in LINKABLE:
                 if src not in self.conn.links and src not in (self.parent, self.child):
@@ -276,8 +275,7 @@ class RoleSwitching(Behavior, _Timed):
             elif src in self.conn.links:
                 self.conn.links.discard(src)  # a repeater or the base station: no explorer links with it
         elif role in LINKABLE and src not in (self.parent, self.child):
-            ctx.send(src, DISCONNECT, {"r": self.role, "why": "role"})  # repeaters link only parent and child
-        return True
+            BODIES.send(ctx, src, msg.Disconnect(self.role, "role"))  # repeaters link only parent and child
 
     def _heard_leader(self, ctx: Context, src: int, epoch: int, parent: int | None = None,
                       flood: bool = False) -> None:
@@ -319,18 +317,15 @@ class RoleSwitching(Behavior, _Timed):
         self.took_over = None
         self.ho = None
 
-    def _on_ll_info(self, ctx: Context, src: int, b: dict) -> bool:
-        o, s, dl, h, e = b["o"], b["s"], b["dl"], b["h"], b["e"]
-        if not (is_int(o) and is_int(s) and is_num(dl) and is_int(h) and is_int(e) and is_point(b["x"])
-                and is_point(b["u"])):
-            return False
+    def _on_ll_info(self, ctx: Context, src: int, b: msg.LeaderInfo) -> None:
+        o, s, dl, h, e = b.origin, b.seq, b.deadline, b.hop, b.epoch
         if ctx.now > dl:  # F1: expired copies are ignored
             self.flood_stats["expired"] += 1
-            return True
+            return
         key = (o, s)
         if key in self.seen:  # F2: the first copy only
             self.flood_stats["duplicates"] += 1
-            return True
+            return
         self.seen[key] = dl
         self.flood_stats["received"] += 1
         if e > self.epoch and self.role != LL:
@@ -339,125 +334,99 @@ class RoleSwitching(Behavior, _Timed):
             self._heard_leader(ctx, o, e, flood=True)
         cur = self.info
         if cur is None or (e, o) > (cur["e"], cur["o"]) or ((e, o) == (cur["e"], cur["o"]) and s > cur["s"]):
-            self.info = {"e": e, "o": o, "s": s, "x": b["x"], "u": b["u"]}
+            self.info = {"e": e, "o": o, "s": s, "x": b.x, "u": b.u}
             self.last_info = ctx.tick
             if o != self.id:
                 self.known_role[o] = LL  # the newest leader (a former repeater, after a retraction)
         if self.role in LINKABLE:  # F3: forward to every linked robot but the sender, while not expired
             dsts = self.conn.links - {src}
             if dsts:
-                self._send_to(ctx, LL_INFO, {**b, "h": h + 1}, dsts)
+                self._send_to(ctx, msgspec.structs.replace(b, hop=h + 1), dsts)
                 self.flood_stats["forwarded"] += 1
-        return True
 
-    def _on_connect(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (isinstance(b, dict) and b.get("r") in ROLES):
-            return False
-        self.known_role[src] = b["r"]
-        if self.role in LINKABLE and b["r"] in LINKABLE and src not in (self.parent, self.child):
+    def _on_connect(self, ctx: Context, src: int, b: msg.Connect) -> None:
+        self.known_role[src] = b.role
+        if self.role in LINKABLE and b.role in LINKABLE and src not in (self.parent, self.child):
             self.conn.links.add(src)  # Algorithm 2 decided on src's side; we comply (and test it next tick)
             self.repair.add(src)
         elif src not in (self.parent, self.child):
-            ctx.send(src, DISCONNECT, {"r": self.role, "why": "role"})
-        return True
+            BODIES.send(ctx, src, msg.Disconnect(self.role, "role"))
 
-    def _on_disconnect(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (isinstance(b, dict) and b.get("r") in ROLES):
-            return False
-        self.known_role[src] = b["r"]
+    def _on_disconnect(self, ctx: Context, src: int, b: msg.Disconnect) -> None:
+        self.known_role[src] = b.role
         self.conn.links.discard(src)
         self.repair.discard(src)
-        return True
 
     # ---------------------------------------------------------- Algorithm 1 messages
-    def _on_request(self, ctx: Context, src: int, b: dict) -> bool:
+    def _on_request(self, ctx: Context, src: int, b: msg.Request) -> None:
         """Answer a ROLE_REQUEST (``rules.answer_request``, rules H2-H3); accepting makes it pending."""
         p = self.pending
         ans = answer_request(b, src, self.role, self.epoch, src in self.conn.links or src in (self.parent, self.child),
                              self.child, (p["from"], p["epoch"]) if p is not None else None,
                              self.took_over["from"] if self.took_over else None, self.decided)
         if ans.why is not None and ans.new:
-            self._refuse(ans.why, *((src, b["e"]) if ans.why in REMEMBERED else ()))
+            self._refuse(ans.why, *((src, b.epoch) if ans.why in REMEMBERED else ()))
         if ans.reply == "nack":
-            ctx.send(src, NACK, {"e": b["e"], "why": ans.why})
+            BODIES.send(ctx, src, msg.Nack(b.epoch, ans.why))
         elif ans.reply == "ack":
             if ans.new:  # H3: accepted; we switch at tick T
-                goal = b.get("goal")
-                self.pending = {"from": src, "epoch": b["e"], "T": b["T"], "kind": b["kind"],
-                                "goal": goal if is_point(goal) else None,
-                                "gk": b.get("gk", -1) if is_int(b.get("gk")) else -1, "at": ctx.tick}
-                self.accepted.append({"from": src, "epoch": b["e"], "tick": ctx.tick, "T": b["T"], "kind": b["kind"]})
-            ctx.send(src, ACK, {"e": b["e"]})
-        return True
+                goal = None if b.goal is UNSET or b.goal is None else list(b.goal)
+                self.pending = {"from": src, "epoch": b.epoch, "T": b.at, "kind": b.kind, "goal": goal,
+                                "gk": -1 if b.goal_k is UNSET else b.goal_k, "at": ctx.tick}
+                self.accepted.append({"from": src, "epoch": b.epoch, "tick": ctx.tick, "T": b.at, "kind": b.kind})
+            BODIES.send(ctx, src, msg.Ack(b.epoch))
 
-    def _on_ack(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (isinstance(b, dict) and is_int(b.get("e"))):
-            return False
+    def _on_ack(self, ctx: Context, src: int, b: msg.Ack) -> None:
         ho = self.ho
-        if ho is not None and ho["to"] == src and ho["epoch"] == b["e"] and ho.get("acked") is None:
+        if ho is not None and ho["to"] == src and ho["epoch"] == b.epoch and ho.get("acked") is None:
             ho["acked"] = ctx.tick
             ho["evidence"] = "ack"
-        return True
 
-    def _on_nack(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (isinstance(b, dict) and is_int(b.get("e"))):
-            return False
+    def _on_nack(self, ctx: Context, src: int, b: msg.Nack) -> None:
         ho = self.ho
-        if ho is not None and ho["to"] == src and ho["epoch"] == b["e"] and ho.get("acked") is None:
-            ho["outcome"] = f"refused:{b.get('why')}"
+        if ho is not None and ho["to"] == src and ho["epoch"] == b.epoch and ho.get("acked") is None:
+            ho["outcome"] = f"refused:{b.why}"
             ho["end"] = ctx.tick
             self.ho = None
             self.nacked[src] = ctx.tick
-        return True
 
     # ---------------------------------------------------------- mission relay and recovery messages
-    def _on_target(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (isinstance(b, dict) and is_int(b.get("k")) and is_point(b.get("x"))):
-            return False
+    def _on_target(self, ctx: Context, src: int, b: msg.Target) -> None:
         if src != self.parent or self.role not in (RP, LL):
-            return True
-        if b["k"] >= self.goal_k:
-            self.goal, self.goal_k = list(b["x"]), b["k"]
+            return
+        if b.k >= self.goal_k:
+            self.goal, self.goal_k = list(b.x), b.k
         if self.role == RP and self.child is not None:
-            ctx.send(self.child, TARGET, b)
-        return True
+            BODIES.send(ctx, self.child, b)
 
-    def _on_arrived(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (isinstance(b, dict) and is_int(b.get("k"))):
-            return False
+    def _on_arrived(self, ctx: Context, src: int, b: msg.Arrived) -> None:
         if src != self.child:
-            return True
+            return
         if self.role == RP and self.parent is not None:
-            ctx.send(self.parent, ARRIVED, b)
-        elif self.role == BS and b["k"] == self.target_i and self.target_i < len(self.targets):
+            BODIES.send(ctx, self.parent, b)
+        elif self.role == BS and b.k == self.target_i and self.target_i < len(self.targets):
             self.reached.append([self.target_i, ctx.tick])
             self.target_i += 1
             self.last_target_sent = -10**9  # announce the next one at once
-        return True
 
-    def _on_help(self, ctx: Context, src: int, b: Any) -> bool:
+    def _on_help(self, ctx: Context, src: int, b: msg.Help) -> None:
         if self.role in (RP, BS) and self.child is not None:
             pos = self._where(self.child)
             if pos is not None:
-                ctx.send(src, WHERE, {"r": self.role, "c": self.child,
-                                      "cr": self.known_role.get(self.child, RP), "cx": _r(pos)})
-        return True
+                BODIES.send(ctx, src, msg.Where(self.role, self.child, self.known_role.get(self.child, RP), _r(pos)))
 
-    def _on_where(self, ctx: Context, src: int, b: dict) -> bool:
-        if not (isinstance(b, dict) and is_int(b.get("c")) and b.get("cr") in ROLES and is_point(b.get("cx"))):
-            return False
-        self.known_role[src] = b["r"] if b.get("r") in ROLES else self.known_role.get(src, RP)
-        self.known_role[b["c"]] = b["cr"]
+    def _on_where(self, ctx: Context, src: int, b: msg.Where) -> None:
+        self.known_role[src] = b.role
+        self.known_role[b.child] = b.child_role
         if self.role == EX and self.lost:
             h = self.head
             # take the first answer; then only the answer of the child we were sent to (one step further down
             # the chain: the temporary connection moves to it), or any answer that names the local leader
-            if h is None or b["cr"] == LL or (src == h["id"] and h["role"] != LL):
-                self.head = {"id": b["c"], "role": b["cr"], "pos": list(b["cx"]), "via": src}
+            if h is None or b.child_role == LL or (src == h["id"] and h["role"] != LL):
+                self.head = {"id": b.child, "role": b.child_role, "pos": list(b.child_pos), "via": src}
                 if self.temp != src:
-                    self.temps.append([ctx.tick, src, b["c"], b["cr"]])
+                    self.temps.append([ctx.tick, src, b.child, b.child_role])
                 self.temp = src
-        return True
 
     # ---------------------------------------------------------- tick
     def on_tick(self, ctx: Context, sensed) -> None:
@@ -499,9 +468,8 @@ class RoleSwitching(Behavior, _Timed):
     def _send_state(self, ctx: Context, x: np.ndarray) -> None:
         dsts = self._links_all()
         if dsts:
-            self._send_to(ctx, STATE, {"r": self.role, "p": _r(x), "v": _r(self.vel), "u": _r(self.u),
-                                       "n": len(dsts), "e": self.epoch,
-                                       "pa": self.parent if self.role in (RP, LL) else None}, dsts)
+            self._send_to(ctx, msg.State(self.role, _r(x), _r(self.vel), _r(self.u), len(dsts), self.epoch,
+                                         self.parent if self.role in (RP, LL) else None), dsts)
 
     # ---------------------------------------------------------- Algorithm 1, made safe (rules H1-H6)
     def _handover_timers(self, ctx: Context) -> None:
@@ -526,8 +494,8 @@ class RoleSwitching(Behavior, _Timed):
 
     def _send_request(self, ctx: Context, ho: dict) -> None:
         ho["sent"] += 1
-        ctx.send(ho["to"], REQUEST, {"role": LL, "e": ho["epoch"], "T": ho["T"], "kind": ho["kind"],
-                                     "goal": self.goal, "gk": self.goal_k})
+        BODIES.send(ctx, ho["to"], msg.Request(role=LL, epoch=ho["epoch"], at=ho["T"], kind=ho["kind"],
+                                               goal=self.goal, goal_k=self.goal_k))
 
     def _start_handover(self, ctx: Context, to: int, kind: str) -> None:
         # every request gets an epoch never used before, so that a refused or abandoned one cannot tie
@@ -561,7 +529,7 @@ class RoleSwitching(Behavior, _Timed):
     def _drop_all_links(self, ctx: Context, keep=()) -> None:
         drop = self.conn.links - set(keep)
         for j in sorted(drop):
-            ctx.send(j, DISCONNECT, {"r": RP, "why": "role"})
+            BODIES.send(ctx, j, msg.Disconnect(RP, "role"))
         self.conn.links = set(keep)
 
     def _take_over(self, ctx: Context) -> None:
@@ -591,7 +559,7 @@ class RoleSwitching(Behavior, _Timed):
         cands = []
         for c in self.conn.links:
             st = self.nbr.get(c)
-            cands.append(Candidate(c, self._where(c), st["n"] if st and st["r"] in LINKABLE else 0,
+            cands.append(Candidate(c, self._where(c), st.links if st and st.role in LINKABLE else 0,
                                    self.nacked.get(c)))
         req = role_change_request(ctx.tick, x, xp, self.parent, self.parent == self.p.base,
                                   self.nacked.get(self.parent), cands, self.goal, self.p, self.d_c)
@@ -606,7 +574,7 @@ class RoleSwitching(Behavior, _Timed):
     def _tick_base(self, ctx: Context) -> None:
         if self.target_i < len(self.targets) and self.child is not None:
             if ctx.tick - self.last_target_sent >= self.p.target_every:
-                ctx.send(self.child, TARGET, {"k": self.target_i, "x": self.targets[self.target_i]})
+                BODIES.send(ctx, self.child, msg.Target(self.target_i, self.targets[self.target_i]))
                 self.last_target_sent = ctx.tick
             self.goal, self.goal_k = self.targets[self.target_i], self.target_i
 
@@ -631,14 +599,14 @@ class RoleSwitching(Behavior, _Timed):
         self.info = {"e": self.epoch, "o": self.id, "s": self.flood_seq, "x": _r(x), "u": _r(self.u)}
         self.last_info = ctx.tick
         if self.conn.links:
-            self._send_to(ctx, LL_INFO, {"o": self.id, "s": self.flood_seq, "dl": ctx.now + self.p.expiry, "h": 1,
-                                         "e": self.epoch, "x": _r(x), "u": _r(self.u)}, self.conn.links)
+            self._send_to(ctx, msg.LeaderInfo(self.id, self.flood_seq, ctx.now + self.p.expiry, 1, self.epoch, _r(x),
+                                              _r(self.u)), self.conn.links)
         if self.goal is not None and float(np.hypot(*(x - np.array(self.goal)))) <= self.p.arrive:
             if self.arrived_k != self.goal_k:
                 self.arrived_k = self.goal_k
                 self.last_arrived_sent = -10**9
         if self.arrived_k == self.goal_k >= 0 and ctx.tick - self.last_arrived_sent >= self.p.target_every:
-            ctx.send(self.parent, ARRIVED, {"k": self.goal_k})
+            BODIES.send(ctx, self.parent, msg.Arrived(self.goal_k))
             self.last_arrived_sent = ctx.tick
 
     def _tick_explorer(self, ctx: Context, x: np.ndarray) -> None:
@@ -655,7 +623,7 @@ class RoleSwitching(Behavior, _Timed):
             self.u = self._recover(ctx, x)
             return
         links = sorted(self.conn.links)
-        link_u = [st["u"] if (st := self.nbr.get(j)) is not None else None for j in links]
+        link_u = [st.u if (st := self.nbr.get(j)) is not None else None for j in links]
         link_x = [self._where(j) for j in links]
         leader = (self.info["u"], self.info["x"]) if self.info is not None else None
         self.u = explorer_input(x, link_u, link_x, leader, self.p)  # Eqs. 4-7
@@ -665,9 +633,9 @@ class RoleSwitching(Behavior, _Timed):
         if ctx.tick - self.last_help >= self.p.help_every:
             h = self.head
             if h is not None and h["role"] == RP and h["id"] in self._sensed_index:
-                ctx.send(h["id"], HELP, {})  # switch the temporary connection to the found repeater
+                BODIES.send(ctx, h["id"], msg.Help())  # switch the temporary connection to the found repeater
             else:
-                ctx.broadcast(HELP, {})
+                BODIES.broadcast(ctx, msg.Help())
             self.last_help = ctx.tick
             self.helps += 1
         h = self.head
@@ -695,10 +663,10 @@ class RoleSwitching(Behavior, _Timed):
             force_all=self.lost, extra=extra, fixed=1 if self.role == LL else 0)
         self.role_changed = False
         for j in added:
-            ctx.send(j, CONNECT, {"r": self.role})
+            BODIES.send(ctx, j, msg.Connect(self.role))
         for j in sorted(set(removed) | set(rejected)):
             if j in self._sensed_index:
-                ctx.send(j, DISCONNECT, {"r": self.role, "why": "aat"})
+                BODIES.send(ctx, j, msg.Disconnect(self.role, "aat"))
 
     # ---------------------------------------------------------- reports
     def report(self) -> dict:
@@ -771,7 +739,7 @@ class RoleSwitching(Behavior, _Timed):
             "aat_tests_baseline": base,
             "aat_saving": 1 - tests / base if base else None,
             "refused": refused,
-            "malformed": sum(r["malformed"] for r in reps),
+            "malformed": sum(sum(r["malformed"].values()) for r in reps),
         }
 
 
@@ -811,6 +779,7 @@ class AATWalk(Behavior, _Timed):
         self.first = True
         self.frame_cpu = 0.0
         self.received = 0
+        self.malformed: dict[str, int] = {}  # frames that did not decode, by cause
         self.ticks = 0
         self.cpu = 0.0
         self.cpu_role: dict[str, float] = {}
@@ -832,6 +801,8 @@ class AATWalk(Behavior, _Timed):
 
     def on_frame(self, ctx: Context, frame: Frame) -> None:
         self.received += 1
+        if BODIES.decode(frame, self.malformed) is None:
+            return
         if frame.kind == CONNECT:
             self.conn.links.add(frame.src)
         else:
@@ -848,10 +819,10 @@ class AATWalk(Behavior, _Timed):
         self.first = False
         if self.mode == PROPOSED:  # the decision is no longer symmetric: tell the other side
             for j in added:
-                ctx.send(j, CONNECT, {"r": EX})
+                BODIES.send(ctx, j, msg.Connect(EX))
             for j in removed:
                 if j in ids:
-                    ctx.send(j, DISCONNECT, {"r": EX, "why": "aat"})
+                    BODIES.send(ctx, j, msg.Disconnect(EX, "aat"))
         if self.walk_until is None or ctx.tick < self.walk_until:
             a = float(ctx.rng.uniform(0.0, 2 * math.pi))
             ctx.move([self.step * math.cos(a) / ctx.dt, self.step * math.sin(a) / ctx.dt])  # a step per tick
@@ -861,8 +832,11 @@ class AATWalk(Behavior, _Timed):
         self._clock_out(t0, EX)
 
     def report(self) -> dict:
-        return {"role": EX, "connections": sorted(self.conn.links), "aat": self.conn.report(),
-                "received": self.received, "ticks": self.ticks, "cpu_s": self.cpu}
+        rep = {"role": EX, "connections": sorted(self.conn.links), "aat": self.conn.report(),
+               "received": self.received, "ticks": self.ticks, "cpu_s": self.cpu}
+        if self.malformed:
+            rep["malformed"] = self.malformed
+        return rep
 
     @classmethod
     def metrics(cls, reports: dict[int, dict]) -> dict:

@@ -15,7 +15,6 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from protocols.roles.params import RoleParams
-from swarmactors.behavior import is_int
 
 BS, RP, LL, EX = "base_station", "repeater", "local_leader", "explorer"
 ROLES = (BS, RP, LL, EX)
@@ -170,7 +169,8 @@ def answer_request(body: Any, src: int, role: str, epoch: int, linked: bool, chi
                    decided: Mapping[tuple[int, int], str]) -> Answer:
     """How the robot answers ``src``'s request ``body`` to become local leader (Algorithm 1, made safe).
 
-    In order: a malformed request is refused without a reply; a request for a role that does not exist
+    ``body`` is the decoded request (``messages.Request``: one that does not decode is refused, without a
+    reply, before it gets here). In order: a request for a role that does not exist
     (unknown_role) or is not the local leader (not_requestable) is refused. H2: a retry of a request we
     accepted is acknowledged again (``pending`` = (requester, epoch) accepted and waiting for the switch tick,
     or ``led_from`` = the requester we took the lead from at this ``epoch``), and a retry of one we refused
@@ -179,14 +179,11 @@ def answer_request(body: Any, src: int, role: str, epoch: int, linked: bool, chi
     request does not fit our role (role_conflict: EXTEND asks an explorer, RETRACT the parent repeater of the
     requester) or we already accepted another one, or its epoch is not above ours (stale); H3: accepted.
     """
-    if not (isinstance(body, dict) and isinstance(body.get("role"), str) and is_int(body.get("e"))
-            and is_int(body.get("T")) and body.get("kind") in (EXTEND, RETRACT)):
-        return Answer(None, "malformed", True)
-    if body["role"] not in ROLES:
+    if body.role not in ROLES:
         return Answer("nack", "unknown_role", True)
-    if body["role"] != LL:
+    if body.role != LL:
         return Answer("nack", "not_requestable", True)
-    e = body["e"]
+    e = body.epoch
     if pending == (src, e) or (role == LL and epoch == e and led_from == src):
         return Answer("ack", None, False)
     why = decided.get((src, e))
@@ -196,7 +193,7 @@ def answer_request(body: Any, src: int, role: str, epoch: int, linked: bool, chi
         return Answer("nack", "not_neighbour", True)
     if role == BS:
         return Answer("nack", "base_station", True)
-    fits = (body["kind"] == EXTEND and role == EX) or (body["kind"] == RETRACT and role == RP and child == src)
+    fits = (body.kind == EXTEND and role == EX) or (body.kind == RETRACT and role == RP and child == src)
     if not fits or pending is not None:
         return Answer("nack", "role_conflict", True)
     if e <= epoch:

@@ -28,10 +28,10 @@ from __future__ import annotations
 import math
 
 from protocols.secs import rules
+from protocols.secs.messages import BODIES, M_KIND, T_KIND, Bearings, Target
 from swarmactors import Behavior
+from swarmactors.bodies import UNSET
 
-T_KIND = "SECS_T"
-M_KIND = "SECS_M"
 STALE = 5  # ticks after which a neighbour's last message is not used
 CLOSE = 0.4  # m: a circling robot also feels the Lennard-Jones push of robots closer than this
 
@@ -41,42 +41,31 @@ def _finite(x) -> bool:
 
 
 def parse_t(body) -> tuple[dict | None, str | None]:
-    """A SECS_T body, validated: (body, None) or (None, reason); reason "angle" for a bad angle."""
-    if not isinstance(body, dict) or not isinstance(body.get("a"), int):
-        return None, "malformed"
-    t = body.get("T")
-    if body["a"] < 0:
-        if not isinstance(t, list) or not all(rules.angle_ok(x) for x in t):
-            return None, "angle" if isinstance(t, list) else "malformed"
-    elif t is not None and not rules.angle_ok(t):
+    """A SECS_T body, decoded as ``messages.Target`` and its angles checked: (body, None) or (None, cause).
+
+    The cause is the decoder's (``not_a_map``, ``missing_field``, ``bad_field``) or ``angle`` for a bad angle.
+    """
+    causes: dict[str, int] = {}
+    t = BODIES.decode_body(T_KIND, body, causes)
+    if t is None:
+        return None, next(iter(causes))
+    if t.arm < 0:
+        if not isinstance(t.target, list) or not all(rules.angle_ok(x) for x in t.target):
+            return None, "angle" if isinstance(t.target, list) else "bad_field"
+    elif t.target is not None and t.target is not UNSET and not rules.angle_ok(t.target):
         return None, "angle"
-    d = body.get("d")
-    if d is not None and not (_finite(d) and d >= 0):
-        return None, "malformed"
-    v = body.get("v", [0.0, 0.0])
-    if not (isinstance(v, list) and len(v) == 2 and all(_finite(x) for x in v)):
-        return None, "malformed"
-    p = body.get("p")
-    if p is not None and not (isinstance(p, list) and all(_finite(x) and 0 <= x <= 1 for x in p)):
-        return None, "malformed"
-    rv = body.get("rv")
-    if rv is not None and not (_finite(rv) and rv > 0):
-        return None, "malformed"
-    ph = body.get("ph")
-    if ph is not None and not (isinstance(ph, int) and not isinstance(ph, bool) and ph >= 0):
-        return None, "malformed"
     return body, None
 
 
 def parse_m(body, me: int) -> tuple[float | None, str | None]:
-    """This robot's ∠M_ji from a SECS_M body: (angle or None when absent, None) or (None, reason)."""
-    if not isinstance(body, dict) or not isinstance(body.get("M"), list):
-        return None, "malformed"
-    for pair in body["M"]:
-        if not (isinstance(pair, list) and len(pair) == 2 and isinstance(pair[0], int)):
-            return None, "malformed"
-        if pair[0] == me:
-            return (pair[1], None) if rules.angle_ok(pair[1]) else (None, "angle")
+    """This robot's ∠M_ji from a SECS_M body (``messages.Bearings``): (angle or None, None) or (None, cause)."""
+    causes: dict[str, int] = {}
+    m = BODIES.decode_body(M_KIND, body, causes)
+    if m is None:
+        return None, next(iter(causes))
+    for i, angle in m.seen:
+        if i == me:
+            return (angle, None) if rules.angle_ok(angle) else (None, "angle")
     return None, None
 
 
@@ -246,8 +235,8 @@ class SECS(Behavior):
             body = self._master_tick(ctx, nb)
         ctx.move(list(self.v))
         body["v"] = [round(self.v[0], 6), round(self.v[1], 6)]
-        ctx.broadcast(T_KIND, body)
-        ctx.broadcast(M_KIND, {"M": [[j, nb[j][1]] for j in sorted(nb)]})
+        BODIES.broadcast(ctx, Target.of(body))
+        BODIES.broadcast(ctx, Bearings(seen=[[j, nb[j][1]] for j in sorted(nb)]))
         self.odo, self.at = [float(c) for c in ctx.position[:2]], tick
         ctx.set_status(arm=self.arm, aligned=self.aligned, mode=self.mode)
 

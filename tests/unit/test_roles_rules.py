@@ -14,6 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from protocols.roles.behavior import RoleSwitching
+from protocols.roles.messages import BODIES, REQUEST
 from protocols.roles.params import RoleParams
 from protocols.roles.rules import (
     BS,
@@ -220,7 +221,8 @@ REQ = {"role": LL, "e": 5, "T": 40, "kind": EXTEND, "goal": [1.0, 2.0], "gk": 3}
 
 
 def answer(body=REQ, src=7, role=EX, epoch=4, linked=True, child=None, pending=None, led_from=None, decided=None):
-    return answer_request(body, src, role, epoch, linked, child, pending, led_from, decided or {})
+    req = BODIES.decode_body(REQUEST, body)
+    return answer_request(req, src, role, epoch, linked, child, pending, led_from, decided or {})
 
 
 def test_a_linked_explorer_accepts_an_extension_with_a_newer_epoch():
@@ -232,10 +234,14 @@ def test_the_parent_repeater_accepts_a_retraction_from_its_child():
     assert answer({**REQ, "kind": RETRACT}, role=RP, child=8) == Answer("nack", "role_conflict", True)
 
 
-@pytest.mark.parametrize("body", [None, [], {**REQ, "e": "5"}, {**REQ, "T": True}, {**REQ, "kind": "swap"},
-                                  {k: v for k, v in REQ.items() if k != "role"}])
-def test_a_malformed_request_gets_no_reply(body):
-    assert answer(body) == Answer(None, "malformed", True)
+@pytest.mark.parametrize(("body", "cause"), [
+    (None, "not_a_map"), ([], "not_a_map"), ({**REQ, "e": "5"}, "bad_field"), ({**REQ, "T": True}, "bad_field"),
+    ({**REQ, "kind": "swap"}, "bad_field"), ({**REQ, "goal": [1.0]}, "bad_field"),
+    ({k: v for k, v in REQ.items() if k != "role"}, "missing_field")])
+def test_a_malformed_request_is_refused_by_its_decoding_and_gets_no_reply(body, cause):
+    """It never reaches answer_request: the robot counts it in ``refused`` under the decoder's cause."""
+    counts: dict = {}
+    assert BODIES.decode_body(REQUEST, body, counts) is None and counts == {cause: 1}
 
 
 @pytest.mark.parametrize("kw,why", [

@@ -147,19 +147,20 @@ def test_arms_and_informer():
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -0.1, 2 * math.pi, 7.0, "1.0", True])
 def test_bad_angles_are_refused(bad):
     assert not rules.angle_ok(bad)
-    assert parse_t({"a": 0, "T": bad, "al": False, "d": 1.0, "v": [0.0, 0.0]})[1] == "angle"
-    assert parse_t({"a": -1, "T": [0.5, bad], "al": True, "d": 0.0})[1] == "angle"
-    assert parse_m({"M": [[2, 0.3], [7, bad]]}, 7) == (None, "angle")
+    cause = "angle" if isinstance(bad, float) else "bad_field"  # not a number at all: the typed decoder's cause
+    assert parse_t({"a": 0, "T": bad, "al": False, "d": 1.0, "v": [0.0, 0.0]})[1] == cause
+    assert parse_t({"a": -1, "T": [0.5, bad], "al": True, "d": 0.0})[1] == cause
+    assert parse_m({"M": [[2, 0.3], [7, bad]]}, 7) == (None, cause)
 
 
 def test_good_and_malformed_messages():
     assert parse_t({"a": 1, "T": 0.5, "al": True, "d": 2.0, "v": [0.1, 0.0]})[1] is None
     assert parse_t({"a": 1, "T": None, "al": False, "d": None})[1] is None
-    assert parse_t([1, 2])[1] == "malformed"
-    assert parse_t({"a": 1, "T": 0.5, "d": -1.0})[1] == "malformed"
+    assert parse_t([1, 2])[1] == "not_a_map"
+    assert parse_t({"a": 1, "T": 0.5, "d": -1.0})[1] == "bad_field"
     assert parse_m({"M": [[2, 0.3]]}, 7) == (None, None)
     assert parse_m({"M": [[7, 0.3]]}, 7) == (0.3, None)
-    assert parse_m({"M": "x"}, 7) == (None, "malformed")
+    assert parse_m({"M": "x"}, 7) == (None, "bad_field")
 
 
 class _Ctx:
@@ -177,11 +178,11 @@ def test_behaviour_refuses_and_counts_bad_frames():
     b.on_frame(ctx, Frame(src=2, kind="SECS_T", body={"a": 0, "T": math.nan, "d": 1.0}, seq=1, sent=3))
     b.on_frame(ctx, Frame(src=2, kind="SECS_M", body={"M": [[7, 9.0]]}, seq=2, sent=3, rab=(1.0, 0.2)))
     b.on_frame(ctx, Frame(src=2, kind="SECS_M", body=None, seq=3, sent=3, rab=(1.0, 0.2)))
-    assert b.refused == {"angle": 2, "malformed": 1}
+    assert b.refused == {"angle": 2, "not_a_map": 1}
     assert b.info == {} and b.seen_by == {}
     b.on_frame(ctx, Frame(src=2, kind="SECS_M", body={"M": [[7, 1.0]]}, seq=4, sent=3, rab=(1.0, 0.2)))
     assert b.seen_by[2] == (3, 1.0, pytest.approx(0.2))
-    assert b.report()["refused"] == {"angle": 2, "malformed": 1}
+    assert b.report()["refused"] == {"angle": 2, "not_a_map": 1}
 
 
 # ------------------------------------------------------------------------------------ the BMU's sequence (§III-C)
@@ -269,5 +270,5 @@ def test_schedule_parameter_is_validated():
     assert "slots[0].tasks" in schedule_problem({"slots": [{**ok["slots"][0], "tasks": []}]})
     assert "robots" in schedule_problem({**ok, "robots": 1})
     assert "non-empty" in schedule_problem({"slots": []})
-    assert parse_t({"a": 0, "T": None, "d": 1.0, "ph": -1})[1] == "malformed"
+    assert parse_t({"a": 0, "T": None, "d": 1.0, "ph": -1})[1] == "bad_field"
     assert parse_t({"a": 0, "T": None, "d": 1.0, "ph": 3})[1] is None
