@@ -2,7 +2,8 @@
 
 A user's estimator replaces the built-in ``lambda2`` behaviour (default method PI1) and must report, under
 ``lambda2``, ``final`` (its last estimate, a number or null) and ``estimates`` (one per iteration, a number
-or null): the checks take the median over the robots at every iteration.
+or null): the checks judge every robot's own estimates (robots at a zero of the Fiedler vector excepted, see
+``oracle.accurate``).
 """
 
 from __future__ import annotations

@@ -299,6 +299,42 @@ def plot(rows: list[dict], summary: list[dict], img: Path) -> None:
     plt.close(fig)
 
 
+def _pct(e: float | None) -> str:
+    if e is None:
+        return "–"
+    return f"{e:.2g}" if e < 1e-3 or e >= 1e4 else f"{e:.3g}"
+
+
+def markdown(summary: list[dict]) -> str:
+    """The summary as a markdown table (the docs' tables): one row per (rule, K, method, P), one column per p.
+
+    A cell: runs where every judged robot stays within 1 % / runs, the median iteration from which they do
+    (when more than half do), and the final per-robot e: worst robot (median over graphs) / median robot.
+    """
+    rows = sorted({(s["rule"], s["K"], s["method"], s["power"]) for s in summary if s["per_robot_runs"]},
+                  key=lambda r: (r[1], r[2], r[0] != "ours", r[3]))
+    ps = sorted({s["p"] for s in summary})
+    out = ["| K | method (horizon) | " + " | ".join(f"p = {p:g}" for p in ps) + " |",
+           "|---|---|" + "---|" * len(ps)]
+    for rule, k, method, power in rows:
+        cells, horizon = [], 0
+        for p in ps:
+            sel = [s for s in summary if (s["rule"], s["K"], s["method"], s["power"], s["p"])
+                   == (rule, k, method, power, p) and s["per_robot_runs"]]
+            if not sel:
+                cells.append("")
+                continue
+            s = sel[0]
+            horizon = max(horizon, s["horizon"])
+            it = s["every_robot_median_iterations"]
+            cells.append(f"{s['every_robot_converged']}/{s['per_robot_runs']}" + (f", from {it:g}" if it else "")
+                         + f"; {_pct(s['robot_worst_median'])} / {_pct(s['robot_median_median'])}")
+        name = {"pi1": "PI1", "wave": "Wave"}.get(method) or (
+            "PI2 literal (P = 1)" if rule == "authors" else f"PI2, P = {power}")
+        out.append(f"| {k} | {name} ({horizon}) | " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
 def sweep_trial(params: dict, *, seed: int, trial: int) -> dict:
     """One trial of ``fig2.toml``: graph number ``trial + 1``, one method and p (PI2 ours, or ``rule``)."""
     method = params["method"]
@@ -333,9 +369,13 @@ def main() -> None:
     ap.add_argument("--power", type=int, default=20, help="PI2's power steps per round, with --large")
     ap.add_argument("--ticks", type=int, help="the horizon, with --large (default: per method)")
     ap.add_argument("--plot", action="store_true", help="only redraw the figures from --out")
+    ap.add_argument("--table", action="store_true", help="only print the summary of --out as a markdown table")
     args = ap.parse_args()
     saved = json.loads(args.out.read_text()) if args.out.exists() else {"runs": []}
     rows, extra = saved["runs"], {k: v for k, v in saved.items() if k not in ("runs", "summary")}
+    if args.table:
+        print(markdown(summarise(rows)))
+        return
     t0 = time.time()
     if not args.plot:
         if args.large:
