@@ -44,6 +44,7 @@ import json
 import math
 import statistics
 import sys
+import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -135,11 +136,11 @@ def drops(result) -> dict:
 
 
 # ---------------------------------------------------------------- one run per protocol
-def run_flooding(n: int, degree: float, seed: int, radio: str) -> dict:
+def run_flooding(n: int, degree: float, seed: int, radio: str, out: Path) -> dict:
     from swarmactors.inprocess import run_inprocess
 
     pts, g = placement(n, degree, seed)
-    r = run_inprocess(static_scenario("channel-flooding", pts, seed, 24, radio,
+    r = run_inprocess(out=out, scenario=static_scenario("channel-flooding", pts, seed, 24, radio,
                                       {"use": "flooding", "origin": 0, "at": 1, "expiry": 20}))
     got = [rob["flooding"]["received"]["0/0"] for rid, rob in r["robots"].items()
            if int(rid) != 0 and rob["flooding"]["received"].get("0/0")]
@@ -147,14 +148,14 @@ def run_flooding(n: int, degree: float, seed: int, radio: str) -> dict:
             "latency": statistics.mean(e["tick"] - 1 for e in got) if got else None, **drops(r)}
 
 
-def run_biconnectivity(n: int, degree: float, seed: int, radio: str) -> dict:
+def run_biconnectivity(n: int, degree: float, seed: int, radio: str, out: Path) -> dict:
     from protocols.biconnectivity.oracle import paper_biconnected
     from swarmactors.inprocess import run_inprocess
 
     pts, g = placement(n, degree, seed)
     truth = paper_biconnected(g)
     beh = {"use": "biconnectivity", "N": n, "c": 1, "initiator": 0, "at": 1, "hello": 0}
-    r = run_inprocess(static_scenario("channel-biconnectivity", pts, seed, 6 * n + 8, radio, beh))
+    r = run_inprocess(out=out, scenario=static_scenario("channel-biconnectivity", pts, seed, 6 * n + 8, radio, beh))
     checks = wrong = missing = budget = 0
     for rep in r.reports("biconnectivity").values():
         for ck in rep.get("checks", []):
@@ -170,14 +171,14 @@ def run_biconnectivity(n: int, degree: float, seed: int, radio: str) -> dict:
             "missing": missing, "budget": budget, **drops(r)}
 
 
-def run_lambda2(n: int, degree: float, seed: int, radio: str) -> dict:
+def run_lambda2(n: int, degree: float, seed: int, radio: str, out: Path) -> dict:
     from protocols.lambda2.oracle import laplacian_lambda2
     from swarmactors.inprocess import run_inprocess
 
     pts, g = placement(n, degree, seed)
     truth = laplacian_lambda2(g)
     beh = {"use": "lambda2", "method": "pi1"}
-    r = run_inprocess(static_scenario("channel-lambda2", pts, seed, LAMBDA2_TICKS, radio, beh))
+    r = run_inprocess(out=out, scenario=static_scenario("channel-lambda2", pts, seed, LAMBDA2_TICKS, radio, beh))
     finals = []
     for rep in r.reports("lambda2").values():
         est = [e for e in rep["estimates"] if e is not None and math.isfinite(e)]
@@ -189,7 +190,7 @@ def run_lambda2(n: int, degree: float, seed: int, radio: str) -> dict:
             **drops(r)}
 
 
-def run_roles(n: int, _density: float, seed: int, radio: str) -> dict:
+def run_roles(n: int, _density: float, seed: int, radio: str, out: Path) -> dict:
     from protocols.roles.oracle import disconnection_episodes
     from protocols.roles.scenarios import D_C, patrol_scenario
     from swarmactors.inprocess import run_inprocess
@@ -198,7 +199,7 @@ def run_roles(n: int, _density: float, seed: int, radio: str) -> dict:
     ch = channel(radio, D_C)
     if ch is not None:
         sc["radio"]["channel"] = ch
-    r = run_inprocess(sc)
+    r = run_inprocess(out=out, scenario=sc)
     reached = sum(len(rep.get("reached", [])) for rep in r.reports("roles").values())
     info = disconnection_episodes(r)
     return {"targets": reached, "disconnections": len(info["episodes"]),
@@ -211,7 +212,8 @@ RUN = {"flooding": run_flooding, "biconnectivity": run_biconnectivity, "lambda2"
 def task(args: tuple) -> tuple:
     proto, n, density, seed, radio = args
     t0 = time.perf_counter()
-    out = RUN[proto](n if n is not None else density, density, seed, radio)
+    with tempfile.TemporaryDirectory() as tmp:
+        out = RUN[proto](n if n is not None else density, density, seed, radio, Path(tmp))
     out["wall_s"] = round(time.perf_counter() - t0, 2)
     return args, out
 
