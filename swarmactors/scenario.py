@@ -214,16 +214,17 @@ def _resolve_space(world: World, source: str) -> None:
         z = None if ob.z in (UNSET, None) else [float(v) for v in ob.z]
         if ob.c_shape is not UNSET:
             c = ob.c_shape
-            resolved += maps.c_shape([float(v) for v in c.center], float(c.size), float(c.thickness), c.opening, z)
+            parts = maps.c_shape([float(v) for v in c.center], float(c.size), float(c.thickness), c.opening, z)
         elif ob.box is not UNSET:
-            resolved.append(maps.box(*points(ob.box, 2, f"{key}.box"), z))
+            parts = [maps.box(*points(ob.box, 2, f"{key}.box"), z)]
         else:
             xy = points(ob.xy, 2, f"{key}.xy")
             if not convex(np.array(xy)):
                 raise SpecError(f"{key}.xy", "must be a convex polygon with non-zero area, vertices in order (split a "
                                              "non-convex obstacle into convex pieces)")
-            resolved.append({"xy": xy, "z": z})
-    world.obstacles = [Obstacle(xy=ob["xy"], z=ob["z"]) for ob in resolved]
+            parts = [{"xy": xy, "z": z}]
+        resolved += [{**part, "loss_db": ob.loss_db} for part in parts]
+    world.obstacles = [Obstacle(xy=ob["xy"], z=ob["z"], loss_db=ob["loss_db"]) for ob in resolved]
     if world.map is None:
         return
     m = decode({"file": world.map} if isinstance(world.map, str) else world.map, MapSource, "world.map")

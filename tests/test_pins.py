@@ -41,6 +41,7 @@ SCENARIO_PINS = {
     "relays.toml": "b72128f085b5b93cae47a72661ef14a3",  # issue 43: a new scenario
     "secs-prominence.toml": "0bc067f2ad73d4a08a215790ef056a8f",  # issue 18
     "stigmergy.toml": "df9a3f0a12473e58a660537ee6ade53e",
+    "biconnectivity-channel.toml": "3570cfa5486e26709c9d66ee21e6f1c3",  # issue 38: a new scenario (the shared channel)
 }
 
 # quick-suite lockstep cases of every conformance family, built-in behaviour: trace hash

@@ -208,6 +208,9 @@ class Channel(_Spec):
     wall_loss_db: key(number(ge=0) | None, "with `radio.occlusion`: a link an obstacle blocks loses this many dB "
                       "instead of being cut (an interferer out of its sender's `range` is taken as unobstructed)",
                       default="none (a blocked link is dropped as `occluded`)") = None
+    walls: key(Literal["link", "crossing"], "with `wall_loss_db`: `link` - a blocked link loses `wall_loss_db` once, "
+               "however many walls it crosses; `crossing` - it loses, for each obstacle it crosses, that obstacle's "
+               "`loss_db` (its material), else `wall_loss_db` (a run of blocked map cells is one wall)") = "link"
     shadowing_ticks: key(Annotated[int, Meta(ge=1)], "a link's shadowing stays the same for this many ticks "
                          "(1: a new draw every tick; correlated in time above 1)") = 1
     noise_floor_dbm: _ckey(Number, "noise_floor_dbm", "thermal noise power at a receiver, dBm") = UNSET
@@ -310,6 +313,9 @@ class Radio(_Spec):
             self.channel.check()
             if self.channel.wall_loss_db is not None and not self.occlusion:
                 raise SpecError("radio.channel.wall_loss_db", "needs radio.occlusion = true (the links walls block)")
+            if self.channel.walls != "link" and self.channel.wall_loss_db is None:
+                raise SpecError("radio.channel.walls", "needs wall_loss_db (the loss of a wall without its own "
+                                                       "loss_db)")
         if self.loss_model != "gilbert":
             for name in GILBERT_KEYS:
                 if getattr(self, name) is not None:
@@ -372,6 +378,7 @@ class Obstacle(_Spec):
     box: Annotated[list[XY], Meta(min_length=2, max_length=2)] | UnsetType = UNSET
     c_shape: CShape | UnsetType = UNSET
     z: Interval | None | UnsetType = UNSET
+    loss_db: number(ge=0) | UnsetType = UNSET  # radio.channel.walls = "crossing": dB a link crossing it loses
 
     def check(self, where: str) -> None:
         """Exactly one shape; ``z`` = [z_min, z_max] with z_min < z_max; a box's min < max; 0 < 2 thickness < size."""
@@ -426,7 +433,8 @@ class World(_Spec):
                  shape="array of `{name = \"…\", pos = [x, y], known_by = …}`") = []
     obstacles: key(list[Obstacle], "convex obstacles: `{xy = [[x, y], …]}` (a convex polygon, ≥ 3 vertices in "
                    "order), `{box = [[x0, y0], [x1, y1]]}` or `{c_shape = {center, size, thickness, opening}}`, each "
-                   "with an optional vertical extent `z = [z_min, z_max]` (default: every height) "
+                   "with an optional vertical extent `z = [z_min, z_max]` (default: every height) and `loss_db`, "
+                   "the dB a radio link crossing it loses with `radio.channel.walls = \"crossing\"` (its material) "
                    "([Obstacles and maps](#obstacles-and-maps))", shape="array of tables") = []
     map: key(str | dict[str, Any] | None, "a grid map: `\"arena.map\"` (a Moving AI file, relative to the scenario "
              "file), or `{file = …}` / `{maze = {cols, rows, seed, corridor, wall}}` with `cell` (length units per "

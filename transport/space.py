@@ -38,6 +38,7 @@ class Prism:
 
     xy: np.ndarray
     z: tuple[float, float] = (-INF, INF)
+    loss_db: float | None = None  # what a radio link crossing it loses (radio.channel.walls = "crossing")
 
     def half_spaces(self) -> tuple[np.ndarray, np.ndarray]:
         """Outward normals ``n`` (k+2 x 3) and offsets ``h``: inside is n . p <= h for every row."""
@@ -144,6 +145,30 @@ class Space:
         """Whether each segment a -> b overlaps an obstacle over a positive length."""
         return np.isfinite(self.first_hit(a, b, ground))
 
+    def wall_loss(self, a: np.ndarray, b: np.ndarray, default_db: float) -> np.ndarray:
+        """The dB each segment a -> b loses through the walls it crosses.
+
+        Each prism it overlaps over a positive length adds its ``loss_db`` (``default_db`` when it has none);
+        each run of consecutive blocked grid cells along it adds ``default_db`` (a thick wall is one wall).
+        """
+        a = np.asarray(a, dtype=float)
+        b = np.asarray(b, dtype=float)
+        out = np.zeros(len(a))
+        if len(a) == 0:
+            return out
+        if self.prisms:
+            t_in, t_out, parallel_out = self._prisms_clip(a, b)
+            crossed = (t_in < t_out) & ~parallel_out  # (n, m)
+            loss = np.array([default_db if p.loss_db is None else p.loss_db for p in self.prisms], dtype=float)
+            out += crossed.astype(float) @ loss
+        if self.grid is not None:
+            _t0, stop, valid = self._grid_cells(a, b, False)
+            for i in range(len(a)):
+                s = stop[i][valid[i]]
+                if len(s):
+                    out[i] += default_db * (int(s[0]) + int(np.count_nonzero(s[1:] & ~s[:-1])))
+        return out
+
     def inside(self, pts: np.ndarray, ground: np.ndarray | bool = True) -> np.ndarray:
         """Whether each point (n x 3) is inside an obstacle (water counts for ground points)."""
         pts = np.asarray(pts, dtype=float)
@@ -181,6 +206,15 @@ class Space:
 
     # ------------------------------------------------------------ prisms: Cyrus-Beck clipping
     def _prisms_hit(self, a: np.ndarray, b: np.ndarray, closed: bool = False) -> np.ndarray:
+        t_in, t_out, parallel_out = self._prisms_clip(a, b)
+        hit = ((t_in <= t_out) if closed else (t_in < t_out)) & ~parallel_out
+        return np.where(hit, t_in, INF).min(axis=1)
+
+    def _prisms_clip(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per segment and prism (n x m): where it enters and leaves the prism (clipped to [0, 1]); parallel.
+
+        The third array marks a segment parallel to a face and outside it: it misses the prism.
+        """
         if self.flat:
             a = np.column_stack([a[:, :2], np.zeros(len(a))])
             b = np.column_stack([b[:, :2], np.zeros(len(b))])
@@ -197,11 +231,18 @@ class Space:
         t_out = np.where(leaving, ratio, INF).min(axis=2)
         t_in = np.maximum(t_in, 0.0)
         t_out = np.minimum(t_out, 1.0)
-        hit = ((t_in <= t_out) if closed else (t_in < t_out)) & ~parallel_out.any(axis=2)
-        return np.where(hit, t_in, INF).min(axis=1)
+        return t_in, t_out, parallel_out.any(axis=2)
 
     # ------------------------------------------------------------ grids: every cell a segment crosses
     def _grid_hit(self, a: np.ndarray, b: np.ndarray, ground) -> np.ndarray:
+        t0, stop, _valid = self._grid_cells(a, b, ground)
+        return np.where(stop, t0, INF).min(axis=1)
+
+    def _grid_cells(self, a: np.ndarray, b: np.ndarray, ground) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The pieces of each segment between cell borders, in order (n x pieces each).
+
+        Where each piece starts (t), whether its cell stops the segment, whether it has a positive length.
+        """
         g = self.grid
         d = b - a
         parts = [np.zeros((len(a), 1)), np.ones((len(a), 1))]
@@ -233,8 +274,7 @@ class Space:
         pts = a[:, None, :] + mid[..., None] * d[:, None, :]
         gr = np.broadcast_to(np.asarray(ground), (len(a),))
         stop = g.cells_at(pts.reshape(-1, 3), self.flat, np.repeat(gr, mid.shape[1])).reshape(mid.shape) & valid
-        first = np.where(stop, t0, INF).min(axis=1)
-        return first
+        return t0, stop, valid
 
     def _grid_near(self, pts: np.ndarray, radius: np.ndarray, ground) -> np.ndarray:
         g = self.grid
@@ -288,7 +328,8 @@ def convex(xy: np.ndarray) -> bool:
 def space_from_spec(world: dict) -> Space:
     """The ``Space`` of a resolved ``[world]`` section (``obstacles`` and ``map``; see swarmactors.maps)."""
     flat = world["dims"] == 2
-    prisms = [Prism(np.asarray(o["xy"], dtype=float), _extent(o.get("z"))) for o in world.get("obstacles") or []]
+    prisms = [Prism(np.asarray(o["xy"], dtype=float), _extent(o.get("z")), o.get("loss_db"))
+              for o in world.get("obstacles") or []]
     grid = None
     m = world.get("map")
     if m:

@@ -50,6 +50,7 @@ from world.sensing import gather
 
 TOUCH_S = 1e-9  # frames that overlap by less than this (a nanosecond: rounding of back-to-back slots) do not
 SHARED_KEY = "channel.schedule"  # where the decision's schedule waits for the next rule (``Transmissions.shared``)
+WALLS_KEY = "channel.walls"  # where the decision's wall losses per link wait for the next rule
 
 
 def normal(seed: int, *fields) -> np.ndarray:
@@ -89,6 +90,7 @@ class ChannelModel:
         self.window = float(config.window_s) if config.window_s is not None else self.dt
         self.noise_mw = float(mw(config.noise_floor_dbm))
         self.threshold = float(mw(config.sinr_threshold_db))  # linear
+        self.space = None  # transport.space.Space: the walls, for walls = "crossing" (Medium.use_space)
 
     # ------------------------------------------------------------ power
     def airtime(self, sizes: np.ndarray) -> np.ndarray:
@@ -133,13 +135,36 @@ class ChannelModel:
         return p - self.walls(tx, tx.where)
 
     def walls(self, tx, where: np.ndarray) -> np.ndarray | float:
-        """``wall_loss_db`` for the links (indices into ``tx.table.nbrs``, -1: out of reach) an obstacle blocks."""
-        if self.config.wall_loss_db is None or tx.hidden is None or not len(where):
+        """The wall loss (dB) of the links (indices into ``tx.table.nbrs``, -1: out of reach) obstacles block."""
+        per_link = self.link_walls(tx)
+        if per_link is None or not len(where):
             return 0.0
-        blocked = np.zeros(len(where), dtype=bool)
+        out = np.zeros(len(where))
         known = where >= 0
-        blocked[known] = tx.hidden[where[known]]
-        return self.config.wall_loss_db * blocked
+        out[known] = per_link[where[known]]
+        return out
+
+    def link_walls(self, tx) -> np.ndarray | None:
+        """Per link of ``tx.table`` (aligned with its ``nbrs``): the dB walls take from it; None: no wall loss.
+
+        ``walls = "link"``: ``wall_loss_db`` on every blocked link; ``"crossing"``: the sum over the obstacles
+        the link crosses of their ``loss_db`` (else ``wall_loss_db``). Computed once per decision.
+        """
+        c = self.config
+        if c.wall_loss_db is None or tx.hidden is None:
+            return None
+        got = tx.shared.get(WALLS_KEY)
+        if got is None:
+            got = c.wall_loss_db * tx.hidden
+            if c.walls == "crossing" and self.space is not None:
+                got = np.zeros(len(tx.hidden))
+                k = np.flatnonzero(tx.hidden)
+                pts = np.asarray(tx.positions, dtype=float)
+                if pts.shape[1] == 2:
+                    pts = np.column_stack([pts, np.zeros(len(pts))])
+                got[k] = self.space.wall_loss(pts[tx.table.owners()[k]], pts[tx.table.nbrs[k]], c.wall_loss_db)
+            tx.shared[WALLS_KEY] = got
+        return got
 
     def tx_dbm(self, tx, senders: np.ndarray) -> np.ndarray | None:
         """Each of ``senders``' transmit power (its group's ``tx_power_dbm``, else the channel's); None: all alike."""
@@ -250,9 +275,11 @@ class ChannelModel:
         pos = tx.positions.tolist()
         power = self.tx_dbm(tx, np.arange(len(tx.positions)))
         power = None if power is None else power.tolist()
-        walled: set[tuple[int, int]] = set()  # (sender, receiver) links an obstacle blocks, with wall_loss_db
-        if c.wall_loss_db is not None and tx.hidden is not None:
-            walled = set(zip(tx.table.owners()[tx.hidden].tolist(), tx.table.nbrs[tx.hidden].tolist(), strict=True))
+        walled: dict[tuple[int, int], float] = {}  # (sender, receiver) links obstacles block: their wall loss, dB
+        per_link = self.link_walls(tx)
+        if per_link is not None:
+            walled = dict(zip(zip(tx.table.owners()[tx.hidden].tolist(), tx.table.nbrs[tx.hidden].tolist(),
+                                  strict=True), per_link[tx.hidden].tolist(), strict=True))
         senses: dict[tuple[int, int], bool] = {}  # (a, b): b senses a's frames
         threshold = float(c.cs_threshold_dbm)
         deadlines = deadline.tolist()
@@ -275,8 +302,7 @@ class ChannelModel:
                     if heard is None:
                         p = self.link_dbm(tx.tick, o, s, math.dist(pos[o], pos[s]),
                                           None if power is None else power[o])
-                        if pair in walled:
-                            p -= c.wall_loss_db
+                        p -= walled.get(pair, 0.0)
                         heard = senses[pair] = p >= threshold
                     if not heard:
                         continue

@@ -32,6 +32,7 @@ import numpy as np
 from transport.scenario import Radio
 from transport.severance import Severance
 from world import rng
+from world.channel import ChannelModel
 from world.linkrules import LinkRule, Transmissions, cause_id, cause_name, pipeline
 from world.sensing import Reach
 
@@ -101,6 +102,12 @@ class Medium:
         self.seed = seed
         self.rules = pipeline(config, seed, Severance(), dt, realtime)  # world/linkrules.py, in order
         self._cut = self.rule("cut")  # world.linkrules.Cut
+
+    def use_space(self, space) -> None:
+        """The run's walls (a ``transport.space.Space``), for the channel's ``walls = "crossing"``."""
+        for rule in self.rules:
+            if isinstance(getattr(rule, "model", None), ChannelModel):
+                rule.model.space = space
 
     def rule(self, name: str) -> LinkRule:
         """The rule called ``name`` in the pipeline (the first, if a scenario added two of one kind)."""

@@ -88,6 +88,7 @@ class Simulation:
         if wspec.has_space or self.dims == 3 or wspec.blocking or (self.robots.body > 0).any():
             self.space = SpaceRules(space_from_spec(wspec.space_spec()), self.dims, self.radio.occlusion,
                                     wspec.blocking)
+            self.medium.use_space(self.space.space)
         self.known_map = wspec.space_spec() if any(s.knows_map for s in robots) else None
         self.unclaimed: list[int] = list(range(len(self.robots)))
         self.situated = Situated(self.seed, self.radio.rab)  # local frames, bodies' surfaces, clocks, frame.rab

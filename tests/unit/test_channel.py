@@ -22,8 +22,10 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
+from swarmactors.inprocess import run_inprocess
 from swarmactors.scenario import ScenarioError, resolve
-from transport.scenario import Radio, SpecError
+from transport.scenario import UNSET, Radio, SpecError
+from transport.space import Grid, Prism, Space, space_from_spec
 from world.channel import ChannelModel, mw, qpsk_prr
 from world.linkrules import DROP_CAUSES, cause_name
 from world.radio import Medium, Outgoing
@@ -320,3 +322,66 @@ def test_a_wall_attenuates_instead_of_blocking_with_wall_loss_db(wall_db, fate):
 def test_wall_loss_needs_occlusion():
     with pytest.raises(SpecError, match="needs radio.occlusion = true"):
         Radio.from_dict({"channel": {"wall_loss_db": 10}})
+
+
+# ------------------------------------------------------------------------------------------------ walls
+THIN_WALLS = [Prism(np.array([[3.0, -1.0], [3.1, -1.0], [3.1, 1.0], [3.0, 1.0]])),
+              Prism(np.array([[6.0, -1.0], [6.1, -1.0], [6.1, 1.0], [6.0, 1.0]]))]
+
+
+@pytest.mark.parametrize(("walls", "materials", "fate"), [
+    ("link", (None, None), "ok"),  # one loss of 14 dB: -84 dBm
+    ("crossing", (None, None), "below_sensitivity"),  # two walls of 14 dB: -98 dBm
+    ("crossing", (1.0, None), "ok"),  # 1 + 14 dB: -85 dBm
+    ("crossing", (1.0, 40.0), "below_sensitivity"),  # 41 dB
+])
+def test_walls_attenuate_per_crossing_and_per_material(walls, materials, fate):
+    """10 m apart (-70 dBm in the open), two thin walls between robots 0 and 1; robot 2 in the open."""
+    channel = {"mac": "aloha", "shadowing_sigma_db": 0.0, "wall_loss_db": 14.0, "walls": walls}
+    m = Medium(Radio.from_dict({"range": 100.0, "occlusion": True, "channel": channel}), 1)
+    m.use_space(Space([Prism(p.xy, loss_db=db) for p, db in zip(THIN_WALLS, materials, strict=True)]))
+    pos = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]])
+    frames = [Outgoing(0, None, "B", 1, b"x" * BODY)]
+    in_range = {0: np.array([1, 2]), 1: np.array([0, 2]), 2: np.array([0, 1])}
+    occluded = {0: (np.array([2]), np.array([1]))}
+    deliveries, drops, _ = m.decide(0, frames, in_range, np.ones(3, bool), pos, np.full(3, 100.0), occluded)
+    got = {d: c for _s, _q, d, _k, c in drops} | {d: "ok" for d, *_ in deliveries}
+    assert got == {1: fate, 2: "ok"}
+
+
+def test_wall_loss_counts_prisms_by_material_and_grid_walls_by_runs_of_cells():
+    """A thick wall of two map cells is one wall; two walls with a gap are two; prisms add their own loss."""
+    blocked = np.array([[[False, True, True, False, True, False]]])  # one row: cells 1-2 a wall, cell 4 another
+    grid = Grid((0.0, 0.0), 1.0, blocked, np.array([-math.inf, math.inf]), np.zeros((1, 6), dtype=bool))
+    space = Space([Prism(THIN_WALLS[0].xy + [0.0, 5.0], loss_db=3.0)], grid)
+    a = np.array([[0.5, 0.5, 0.0], [0.5, 0.5, 0.0], [0.5, 0.5, 0.0], [0.0, 5.0, 0.0]])
+    b = np.array([[3.5, 0.5, 0.0], [5.5, 0.5, 0.0], [0.5, 0.9, 0.0], [9.0, 5.0, 0.0]])
+    assert space.wall_loss(a, b, 10.0).tolist() == [10.0, 20.0, 0.0, 3.0]
+
+
+def test_walls_crossing_needs_wall_loss_db_and_obstacles_keep_their_material():
+    with pytest.raises(SpecError, match="needs wall_loss_db"):
+        Radio.from_dict({"occlusion": True, "channel": {"walls": "crossing"}})
+    channel = {"wall_loss_db": 5, "walls": "crossing"}
+    sc = resolve({"run": {"ticks": 1}, "radio": {"occlusion": True, "channel": channel},
+                  "world": {"obstacles": [{"box": [[0, 0], [1, 1]], "loss_db": 2.5},
+                                          {"c_shape": {"center": [5, 5], "size": 2, "thickness": 0.2}, "loss_db": 7},
+                                          {"box": [[8, 8], [9, 9]]}]},
+                  "robots": [{"positions": [[20.0, 20.0]]}]})
+    assert [o.loss_db for o in sc.world.obstacles] == [2.5, 7, 7, 7, UNSET]
+    assert [p.loss_db for p in space_from_spec(sc.world.space_spec()).prisms] == [2.5, 7, 7, 7, None]
+
+
+def test_a_run_with_walls_per_crossing_loses_what_one_wall_would_let_through(tmp_path):
+    """In process: two robots 10 m apart behind two walls; one loss of 14 dB lets them talk, two do not."""
+    got = {}
+    for walls in ("link", "crossing"):
+        channel = {"mac": "none", "shadowing_sigma_db": 0.0, "wall_loss_db": 14.0, "walls": walls}
+        r = run_inprocess({"run": {"ticks": 5, "seed": 1, "name": walls}, "radio": {"range": 100.0, "occlusion": True,
+                                                                      "channel": channel},
+                           "world": {"obstacles": [{"box": [[3.0, -1.0], [3.1, 1.0]]},
+                                                   {"box": [[6.0, -1.0], [6.1, 1.0]]}]},
+                           "robots": [{"positions": [[0.0, 0.0], [10.0, 0.0]], "behaviors": [{"use": "beacon"}]}]},
+                          out=tmp_path / walls)
+        got[walls] = (r["world"]["deliveries"], r["world"]["dropped"]["below_sensitivity"])
+    assert got == {"link": (8, 0), "crossing": (0, 10)}
