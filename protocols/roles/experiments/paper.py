@@ -170,7 +170,7 @@ def main_job(n: int, seed: int, ticks: int, params: dict | None = None) -> dict:
         "received_per_tick_by_kind": {k: float(np.mean([r["received_by_kind"].get(k, 0) / r["ticks"]
                                                         for r in reps.values()]))
                                       for k in sorted({k for r in reps.values() for k in r["received_by_kind"]})},
-        # what the radio carried to each robot (issue 23): deliveries plus the overheard copies it discarded
+        # what the radio carried to each robot: deliveries plus the overheard copies it discarded
         "radio_per_tick": float(np.mean([(result.frame_counts(rid)["received"]
                                           + result.frame_counts(rid).get("overheard", 0)) / ticks for rid in reps])),
         "overheard_per_tick": float(np.mean([result.frame_counts(rid).get("overheard", 0) / ticks for rid in reps])),
