@@ -39,8 +39,8 @@ if str(HERE) not in sys.path:  # latency_probe, idle_behavior; spawned hosts inh
 import numpy as np  # noqa: E402
 import zenoh  # noqa: E402
 
-from swarmactors import launcher, scenario  # noqa: E402
-from swarmactors.result import package_version  # noqa: E402
+from swarmactors.oracle.result import package_version  # noqa: E402
+from swarmactors.runs import launcher, scenario  # noqa: E402
 from transport import Endpoints, make_config, pack  # noqa: E402
 
 BEACON = ROOT / "scenarios" / "beacon.toml"
@@ -463,8 +463,8 @@ def _component(file: str, func: str) -> str:
     for part, name in (
         ("/world/", "world/ (tick loop, radio, sensing)"),
         ("/swarmactors/robot/", "swarmactors/robot/ (robot runtime and host session)"),
-        ("/swarmactors/behavior.py", "swarmactors/behavior.py (context)"),
-        ("/swarmactors/trace.py", "swarmactors/trace.py (trace hash)"),
+        ("/swarmactors/robot/behavior.py", "swarmactors/robot/behavior.py (context)"),
+        ("/swarmactors/oracle/trace.py", "swarmactors/oracle/trace.py (trace hash)"),
         ("/transport/", "transport/ (codec, link)"),
         ("/protocols/", "protocols/ (beacon behaviour)"),
         ("/msgpack/", "msgpack"),

@@ -28,7 +28,7 @@ import time
 import tomllib
 from pathlib import Path
 
-from swarmactors.inprocess import run_inprocess
+from swarmactors.runs.inprocess import run_inprocess
 from world.radio import Medium
 
 ROOT = Path(__file__).resolve().parent.parent

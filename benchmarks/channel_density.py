@@ -27,7 +27,7 @@ import json
 import statistics
 from pathlib import Path
 
-from swarmactors.inprocess import run_inprocess
+from swarmactors.runs.inprocess import run_inprocess
 
 ROOT = Path(__file__).resolve().parent.parent
 RADIOS = {"off": None, "none": {"mac": "none"}, "aloha": {"mac": "aloha", "window_s": 0.005},

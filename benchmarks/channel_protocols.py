@@ -3,7 +3,7 @@
 
     python benchmarks/channel_protocols.py [--seeds 2] [--jobs 2] [--only flooding lambda2 ...]
 
-Four protocols, each run in process (``swarmactors.inprocess``, lockstep, the robots' own code), with six
+Four protocols, each run in process (``swarmactors.runs.inprocess``, lockstep, the robots' own code), with six
 radios and at three densities. The radio range is 40 m in every run (``unit_m`` = 40 m / the scenario's
 range), the channel the generic preset (0 dBm, n = 3, L0 = 40 dB, σ = 4 dB, noise −100 dBm, sensitivity
 −95 dBm, SINR 6 dB, 250 kbit/s):
@@ -137,7 +137,7 @@ def drops(result) -> dict:
 
 # ---------------------------------------------------------------- one run per protocol
 def run_flooding(n: int, degree: float, seed: int, radio: str, out: Path) -> dict:
-    from swarmactors.inprocess import run_inprocess
+    from swarmactors.runs.inprocess import run_inprocess
 
     pts, g = placement(n, degree, seed)
     r = run_inprocess(out=out, scenario=static_scenario("channel-flooding", pts, seed, 24, radio,
@@ -150,7 +150,7 @@ def run_flooding(n: int, degree: float, seed: int, radio: str, out: Path) -> dic
 
 def run_biconnectivity(n: int, degree: float, seed: int, radio: str, out: Path) -> dict:
     from protocols.biconnectivity.oracle import paper_biconnected
-    from swarmactors.inprocess import run_inprocess
+    from swarmactors.runs.inprocess import run_inprocess
 
     pts, g = placement(n, degree, seed)
     truth = paper_biconnected(g)
@@ -173,7 +173,7 @@ def run_biconnectivity(n: int, degree: float, seed: int, radio: str, out: Path) 
 
 def run_lambda2(n: int, degree: float, seed: int, radio: str, out: Path) -> dict:
     from protocols.lambda2.oracle import laplacian_lambda2
-    from swarmactors.inprocess import run_inprocess
+    from swarmactors.runs.inprocess import run_inprocess
 
     pts, g = placement(n, degree, seed)
     truth = laplacian_lambda2(g)
@@ -193,7 +193,7 @@ def run_lambda2(n: int, degree: float, seed: int, radio: str, out: Path) -> dict
 def run_roles(n: int, _density: float, seed: int, radio: str, out: Path) -> dict:
     from protocols.roles.oracle import disconnection_episodes
     from protocols.roles.scenarios import D_C, patrol_scenario
-    from swarmactors.inprocess import run_inprocess
+    from swarmactors.runs.inprocess import run_inprocess
 
     sc = patrol_scenario(n, seed, ROLES_TICKS, checks=[])
     ch = channel(radio, D_C)

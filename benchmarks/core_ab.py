@@ -33,7 +33,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 MEASURE = r"""
 import json, os, sys
-from swarmactors.launcher import run
+from swarmactors.runs.launcher import run
 def main():
     n, ticks, out = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
     sc = {"run": {"name": "ab", "seed": 1, "ticks": ticks, "trace": False},

@@ -19,7 +19,7 @@ import time
 import tracemalloc
 from pathlib import Path
 
-from swarmactors.host import RobotHost
+from swarmactors.robot.host import RobotHost
 from transport import Endpoints, Keys, Link
 
 SCENARIO = """

@@ -12,7 +12,7 @@ tree is unpacked from git (``git archive``) and each run is a fresh process runn
 this script in ``--one`` mode on that tree (``PYTHONPATH``), so each side builds and decodes its own wire format
 and steps its host through its own API; the baseline's copy must have ``--one`` (commits from 30ba8fc on);
 runs are interleaved (A B B A …), ``--repeats`` times each, with the product's GC setting
-(``swarmactors.hosting.quiet_gc``). The robots' reports must agree. ``--profile`` prints a cProfile of this
+(``swarmactors.robot.hosting.quiet_gc``). The robots' reports must agree. ``--profile`` prints a cProfile of this
 tree's step instead. Nothing is asserted; the numbers go to docs/benchmarks.md and benchmarks/log/ ("A robot
 host's lockstep step").
 """
@@ -34,8 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
-from swarmactors.hosting import quiet_gc
 from swarmactors.robot import RobotRuntime
+from swarmactors.robot.hosting import quiet_gc
 from transport.codec import pack
 from transport.messages import Downlink as DownlinkType
 from transport.messages import FrameIn, Inputs, RobotDescr, RobotIn, RunInfo, Uplink, decode, encode

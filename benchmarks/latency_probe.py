@@ -17,7 +17,7 @@ to the world); the rest is the radio's latency c plus the world's timer
 lateness and the downlink.
 
 With ``SWARMACTORS_RT_STAMPS=1`` in every process's environment (realtime hosts then keep stamps,
-``swarmactors.host.RT_STAMPS`` and ``RT_BATCH``) it also records, per delivery, the wall times
+``swarmactors.robot.host.RT_STAMPS`` and ``RT_BATCH``) it also records, per delivery, the wall times
 (``time.time()``, seconds after the broadcast call) at which the world scheduled it (``frame.sent``), its
 downlink reached the receiving host's loop, the host's timer woke for it, the loop began handing it over, and
 ``on_frame`` was called: ``parts``.
@@ -36,7 +36,7 @@ import time
 from array import array
 
 from swarmactors import Behavior
-from swarmactors import host as _host
+from swarmactors.robot import host as _host
 
 KIND = "PROBE"
 # resolved once: a tree without the stamps (an A/B baseline) must not pay a failing getattr per frame

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import cKDTree
 
-from swarmactors.plots import draw_swarm, plot_run
+from swarmactors.tools.plots import draw_swarm, plot_run
 
 ROLES = ("base", "repeater", "leader", "explorer")
 
@@ -45,7 +45,7 @@ def links(xy: np.ndarray) -> list[tuple[int, int]]:
 
 
 def old_draw(path: Path, pos: dict, edges: list, values: dict) -> None:
-    """The drawing loop of swarmactors/plots.py before issue 26 (numeric colour, one artist per link/label)."""
+    """The drawing loop of swarmactors/tools/plots.py before issue 26 (numeric colour, one artist per link/label)."""
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7, 6.5), dpi=110)
@@ -65,7 +65,7 @@ def old_draw(path: Path, pos: dict, edges: list, values: dict) -> None:
 
 def fake_result(pos: dict, values: dict):
     """A Result whose trace is one tick record at ``pos`` (no run): for timing ``plot_run`` end to end."""
-    from swarmactors.result import Result
+    from swarmactors.oracle.result import Result
 
     n = len(pos)
     data = {"trace": "trace.msgpack", "ticks": 1, "scenario": {"run": {"name": "bench"}, "radio": {"range": 1.0},

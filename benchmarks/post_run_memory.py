@@ -46,13 +46,13 @@ STEPS = {
 CHILD = """
 import json, resource, sys, time
 from pathlib import Path
-from swarmactors.result import Result
-from swarmactors.plots import plot_run
-from swarmactors.charts import write_charts
-from swarmactors.trajectories import plot_result_trajectories
-from swarmactors.launcher import judge
-from swarmactors.replay import Replay, render
-from swarmactors.export import export
+from swarmactors.oracle.result import Result
+from swarmactors.tools.plots import plot_run
+from swarmactors.tools.charts import write_charts
+from swarmactors.tools.trajectories import plot_result_trajectories
+from swarmactors.runs.launcher import judge
+from swarmactors.tools.replay import Replay, render
+from swarmactors.tools.export import export
 from protocols.secs.oracle import connected
 out, tmp = Path(sys.argv[1]), Path(sys.argv[2])
 r = Result.load(out / "result.json")

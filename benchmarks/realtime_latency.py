@@ -132,8 +132,8 @@ def floor(n_host: int, per_robot: float, repeats: int = 5) -> dict:
     import numpy as np
 
     sys.path.insert(0, str(HERE))
-    from swarmactors.behavior import Frame
     from swarmactors.robot import RobotRuntime
+    from swarmactors.robot.behavior import Frame
     from transport import pack, seal
     from transport.messages import (
         Deliveries,

@@ -25,7 +25,7 @@ import tempfile
 from pathlib import Path
 
 from swarmactors import Behavior
-from swarmactors.launcher import run
+from swarmactors.runs.launcher import run
 
 ROOT = Path(__file__).resolve().parent.parent
 ORIGIN_EVERY_S = 0.37

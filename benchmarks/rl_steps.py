@@ -66,8 +66,8 @@ def env_rate(n: int, steps: int, talk: bool, seed: int, task: str | None = None)
 
 
 def tick_rate(n: int, steps: int) -> float:
-    from swarmactors.inprocess import InProcessRun
-    from swarmactors.launcher import resolve_run
+    from swarmactors.runs.inprocess import InProcessRun
+    from swarmactors.runs.launcher import resolve_run
     from transport.scenario import Scenario
 
     spec = Scenario.from_dict(resolve_run(scenario(n, steps, [{"use": "beacon"}])))

@@ -5,7 +5,7 @@
         [--seeds 2] [--jobs 2] [--no-realtime] [--out benchmarks/results/robustness.json]
 
 For each family, two of its quick conformance cases (the scenarios and the oracle checks the family ships,
-``swarmactors.conformance``): a *skew case* (a lossless lockstep case) and a *loss case* (the family's lossy
+``swarmactors.runs.conformance``): a *skew case* (a lossless lockstep case) and a *loss case* (the family's lossy
 lockstep case when it has one, else the skew case). Four axes, each a coarse grid walked upwards:
 
 - ``clock_offset`` = [-o, o] seconds on every robot group (drawn per robot from the run's seed),
@@ -63,7 +63,7 @@ def scenario(case_name: str, axis: str | None, value: float, seed: int, params: 
 
     ``params``: behaviour parameters set on every behaviour of the case's family (a variant).
     """
-    from swarmactors.conformance import case_by_name, prepare
+    from swarmactors.runs.conformance import case_by_name, prepare
 
     fam, case = case_by_name(case_name.split("/")[0], case_name, "quick")
     raw = copy.deepcopy(prepare(fam, case, None))

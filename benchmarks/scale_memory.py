@@ -38,8 +38,8 @@ sys.path.insert(0, str(HERE))
 import bench_measure as bench  # noqa: E402  (benchmarks/ is not a package)
 from realtime_soak import Sampler as SoakSampler  # noqa: E402
 
-from swarmactors import launcher  # noqa: E402
-from swarmactors.hosting import Endpoints  # noqa: E402
+from swarmactors.robot.hosting import Endpoints  # noqa: E402
+from swarmactors.runs import launcher  # noqa: E402
 
 
 class Sampler(SoakSampler):

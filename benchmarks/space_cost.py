@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from swarmactors import maps
+from swarmactors.runs import maps
 from transport.scenario import Radio, robot_spec
 from transport.space import space_from_spec
 from world.kinematics import integrate

@@ -17,7 +17,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from swarmactors import sweep as sw
+from swarmactors.tools import sweep as sw
 
 SCENARIO = """
 [run]

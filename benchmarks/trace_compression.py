@@ -18,8 +18,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from swarmactors.launcher import run
-from swarmactors.trace import read_trace
+from swarmactors.oracle.trace import read_trace
+from swarmactors.runs.launcher import run
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -43,7 +43,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 MEASURE = r"""
 import json, os, sys, time
-from swarmactors.launcher import run
+from swarmactors.runs.launcher import run
 def main():
     n, ticks, k, out, stages, trace = (int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3]), sys.argv[4],
                                        sys.argv[5] == "1", sys.argv[6])
@@ -56,7 +56,7 @@ def main():
     spent = {}
     if stages:
         from world import Simulation
-        from swarmactors import trace as tr
+        from swarmactors.oracle import trace as tr
         def wrap(cls, name):
             f = getattr(cls, name)
             def g(*a, **kw):
@@ -81,10 +81,10 @@ if __name__ == "__main__":
 
 INPROC = r"""
 import asyncio, cProfile, json, pstats, sys, time
-from swarmactors.hosting import quiet_gc
+from swarmactors.robot.hosting import quiet_gc
 from swarmactors.robot import RobotRuntime
-from swarmactors.scenario import resolve
-from swarmactors.trace import TraceWriter
+from swarmactors.runs.scenario import resolve
+from swarmactors.oracle.trace import TraceWriter
 from transport import seal, unseal
 from transport.messages import Downlink, RunInfo, Uplink, decode, encode
 from world import Simulation

@@ -21,15 +21,15 @@ from pathlib import Path
 
 from rich.console import Console
 
-from swarmactors import export as export_cli
-from swarmactors import newproject
-from swarmactors import scenario as scenario_mod
 from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME, run_exit
-from swarmactors.hosting import WORLD_GONE_S, HostError, refusal_line, serve_host
-from swarmactors.launcher import new_run_id, private_endpoints, run_dir, run_world, scenario_file, validate_run
-from swarmactors.plugins import BEHAVIORS, COMMANDS, PluginError, available, family_command, resolve
-from swarmactors.progress import RunProgress, crash_tracebacks, summary_table
-from swarmactors.scenario import ScenarioError
+from swarmactors.robot.hosting import WORLD_GONE_S, HostError, refusal_line, serve_host
+from swarmactors.robot.plugins import BEHAVIORS, COMMANDS, PluginError, available, family_command, resolve
+from swarmactors.runs import scenario as scenario_mod
+from swarmactors.runs.launcher import new_run_id, private_endpoints, run_dir, run_world, scenario_file, validate_run
+from swarmactors.runs.progress import RunProgress, crash_tracebacks, summary_table
+from swarmactors.runs.scenario import ScenarioError
+from swarmactors.tools import export as export_cli
+from swarmactors.tools import newproject
 from transport import Endpoints, Keys, Security, ensure_files, lease_settings
 from transport.auth import RUN_SECRET_ENV
 from transport.config import check_endpoint
@@ -176,7 +176,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _family_commands(sub) -> None:
     """Add each family's subcommands; one that cannot load, or takes a name already used, is reported and skipped."""
-    from swarmactors.plugins import family_of
+    from swarmactors.robot.plugins import family_of
 
     for name in sorted(available(COMMANDS)):
         if name in sub.choices:
@@ -250,7 +250,7 @@ def main(argv: list[str] | None = None) -> int:
 
 @contextlib.contextmanager
 def _cluster_certs(folder: Path | None):
-    """``--cluster-certs DIR`` as ``$SWARMACTORS_CLUSTER_CERTS`` (read by ``swarmactors.cluster``) for one command."""
+    """``--cluster-certs DIR`` as ``$SWARMACTORS_CLUSTER_CERTS`` for one command (``swarmactors.runs.cluster``)."""
     if folder is None:
         yield
         return
@@ -291,7 +291,7 @@ def _main(args) -> int:
         if args.command in available(COMMANDS) and getattr(args, "handler", None) is not None:
             return family_command(args.command).command(args)  # exit codes as the family's module documents
         if args.command == "schema":
-            from swarmactors.schema import json_schema
+            from swarmactors.runs.schema import json_schema
 
             if args.out:
                 args.out.write_text(json_schema() + "\n", encoding="utf-8")
@@ -305,7 +305,7 @@ def _main(args) -> int:
         if args.command == "view":
             check_endpoint(args.connect)  # bad input (exit 2), not "cannot reach"
         if args.command in ("view", "replay", "sweep"):
-            from swarmactors.see import command  # the viewer, replays and sweeps (docs/viewer.md)
+            from swarmactors.tools.see import command  # the viewer, replays and sweeps (docs/viewer.md)
 
             return command(args, err)
         sc = _load(args)
@@ -349,7 +349,7 @@ def _load(args) -> dict:
     _shipped_hint(args.scenario)
     scenario_file(args.scenario)
     if args.command in ("run", "world") and args.foxglove is not None:
-        from swarmactors.see import check_foxglove
+        from swarmactors.tools.see import check_foxglove
 
         check_foxglove(args)  # the extra is installed, and --view is not asked too (exit 2)
     overrides = list(args.set)
@@ -387,7 +387,7 @@ def _run_on(args, sc: dict, err: Console, out_dir: Path, endpoints: Endpoints, r
     progress = RunProgress(sc["run"]["ticks"], sc["run"]["name"], quiet=args.quiet)
     session = None
     if args.view or args.foxglove is not None:
-        from swarmactors.see import view_session
+        from swarmactors.tools.see import view_session
 
         session = view_session(args)  # the web page or the Foxglove feed
     codes: list[int] = []
@@ -445,14 +445,14 @@ def _plots(result, sc: dict, out_dir: Path, err: Console) -> list[str]:
         try:
             if result.trace_path is not None or result["robots"]:
                 try:
-                    from swarmactors.plots import plot_run  # matplotlib is slow to import: only when plotting
+                    from swarmactors.tools.plots import plot_run  # matplotlib is slow to import: only when plotting
 
                     written.append(plot_run(result, out_dir / "swarm.png", field))
                 except Exception as exc:  # a plot must never cost the run its result
                     err.print(f"[yellow]plot skipped:[/] {exc}")
             if result.trace_path is not None:
-                from swarmactors.see import write_run_charts
-                from swarmactors.trajectories import write_trajectories
+                from swarmactors.tools.see import write_run_charts
+                from swarmactors.tools.trajectories import write_trajectories
 
                 written += write_run_charts(result, out_dir, field, err)
                 written.append(write_trajectories(result, out_dir, err))
@@ -523,8 +523,8 @@ def _check(args, err: Console) -> int:
     )
     from rich.table import Table
 
-    from swarmactors import conformance as cf
-    from swarmactors.progress import check_counts, check_rows
+    from swarmactors.runs import conformance as cf
+    from swarmactors.runs.progress import check_counts, check_rows
 
     if args.jobs < 1:
         raise UsageError(f"--jobs {args.jobs}: must be >= 1")
@@ -646,8 +646,8 @@ def scenario_family(path: Path) -> str:
     """The protocol family whose behaviours a scenario runs (``-`` for none, ``a+b`` for several)."""
     import tomllib
 
-    from swarmactors.plugins import families as registered
-    from swarmactors.plugins import family_of
+    from swarmactors.robot.plugins import families as registered
+    from swarmactors.robot.plugins import family_of
 
     try:
         raw = tomllib.loads(path.read_text(errors="replace"))
@@ -678,7 +678,7 @@ def _scenario_description(path: Path) -> str:
 
 def _list(what: str) -> int:
     """``swarmactors list behaviors|checks|families|scenarios``: names and one-line descriptions."""
-    from swarmactors.plugins import CHECKS, FAMILIES, PluginError, available, broken_families, families, family_of
+    from swarmactors.robot.plugins import CHECKS, FAMILIES, PluginError, available, broken_families, families, family_of
 
     rows: list[tuple[str, ...]] = []
     if what == "scenarios":

@@ -54,7 +54,7 @@ def conformance_test(family: str, behavior=None, determinism: bool = True):
 def pytest_generate_tests(metafunc):
     if "conformance" not in metafunc.fixturenames:
         return
-    from swarmactors.conformance import select
+    from swarmactors.runs.conformance import select
 
     marker = metafunc.definition.get_closest_marker(MARKER)
     if marker is None or len(marker.args) != 1 or not isinstance(marker.args[0], str):
@@ -72,7 +72,7 @@ def conformance(request, tmp_path):
     family_name, mode, case_name = request.param
 
     def run(family: str, behavior=None, determinism: bool = True):
-        from swarmactors.conformance import behavior_path, case_by_name, run_case
+        from swarmactors.runs.conformance import behavior_path, case_by_name, run_case
 
         if family != family_name:
             raise pytest.UsageError(f"conformance({family!r}) but the test is parametrised for {family_name!r}")
@@ -93,7 +93,7 @@ def conformance(request, tmp_path):
 
 @pytest.fixture
 def swarm_run(tmp_path):
-    from swarmactors.launcher import run
+    from swarmactors.runs.launcher import run
 
     counter = iter(range(1_000_000))
 

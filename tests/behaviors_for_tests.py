@@ -195,7 +195,7 @@ class HostImports(Behavior):
         import sys
 
         oracle = sorted(m for m in sys.modules
-                        if m.split(".")[0] in {"networkx", "scipy"} or m.startswith("swarmactors.conformance"))
+                        if m.split(".")[0] in {"networkx", "scipy"} or m.startswith("swarmactors.runs.conformance"))
         return {"modules": oracle, "pid": os.getpid()}
 
 

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from swarmactors.launcher import new_run_id, run_world
-from swarmactors.result import Result
-from swarmactors.scenario import resolve_scenario
+from swarmactors.oracle.result import Result
+from swarmactors.runs.launcher import new_run_id, run_world
+from swarmactors.runs.scenario import resolve_scenario
 from transport import Endpoints
 
 CHECKOUT_OUT = Path(__file__).resolve().parent.parent / "out"  # where runs without an output directory go

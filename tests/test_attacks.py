@@ -31,16 +31,24 @@ import zenoh
 
 from protocols.cbaa.rules import SCORES
 from protocols.stigmergy.table import CONFLICT_RULES
-from swarmactors.behavior import Behavior
-from swarmactors.host import Robot, RobotHost, WorldLost
-from swarmactors.launcher import new_run_id, private_endpoints, run_world
-from swarmactors.launcher import run as launcher_run
-from swarmactors.plugins import BEHAVIORS, RefusedBehavior, UnknownRule, allowed, available, resolve, resolve_behavior
-from swarmactors.scenario import ScenarioError, resolve_scenario
-from swarmactors.scenario import resolve as resolve_typed
-from swarmactors.scene import Scene
-from swarmactors.trace import TraceHasher
-from swarmactors.viewer import Source, ViewerServer
+from swarmactors.oracle.trace import TraceHasher
+from swarmactors.robot.behavior import Behavior
+from swarmactors.robot.host import Robot, RobotHost, WorldLost
+from swarmactors.robot.plugins import (
+    BEHAVIORS,
+    RefusedBehavior,
+    UnknownRule,
+    allowed,
+    available,
+    resolve,
+    resolve_behavior,
+)
+from swarmactors.runs.launcher import new_run_id, private_endpoints, run_world
+from swarmactors.runs.launcher import run as launcher_run
+from swarmactors.runs.scenario import ScenarioError, resolve_scenario
+from swarmactors.runs.scenario import resolve as resolve_typed
+from swarmactors.tools.scene import Scene
+from swarmactors.tools.viewer import Source, ViewerServer
 from test_bad_input import FLOOD_RAW, PAUSE_AT, FakeLink, WireRun, _get, _HostThread
 from transport import Endpoints, Keys, Link, host_loss_s, make_config, pack, seal, unpack
 from transport.messages import (
@@ -1007,7 +1015,7 @@ def test_trace_bomb_is_refused_in_seconds_without_the_memory(trace_bomb, tmp_pat
 
 def test_trace_record_of_tiny_containers_is_refused_by_count(tmp_path):
     """30 MiB of empty maps fits the byte bound but would take ~2.4 GB as dicts: refused by the container bound."""
-    from swarmactors.trace import MAX_RECORD_CONTAINERS, TraceError, iter_trace
+    from swarmactors.oracle.trace import MAX_RECORD_CONTAINERS, TraceError, iter_trace
 
     n = 30 << 20
     head = pack({"trace": "swarmactors", "version": 2, "run_id": "x", "clock": "lockstep", "seed": 1})
@@ -1023,8 +1031,8 @@ def test_trace_record_of_tiny_containers_is_refused_by_count(tmp_path):
 
 def test_zstd_trace_beyond_the_decompression_ratio_is_refused(tmp_path):
     """Valid 8 MiB records, each ~300 bytes compressed: refused once the stream passes the ratio bound."""
-    from swarmactors.replay import Replay
-    from swarmactors.trace import MAX_RATIO, RATIO_FLOOR, TraceError, iter_trace
+    from swarmactors.oracle.trace import MAX_RATIO, RATIO_FLOOR, TraceError, iter_trace
+    from swarmactors.tools.replay import Replay
 
     head = pack({"trace": "swarmactors", "version": 2, "run_id": "x", "clock": "lockstep", "seed": 1})
     frames = []
@@ -1044,8 +1052,8 @@ def test_zstd_trace_beyond_the_decompression_ratio_is_refused(tmp_path):
 
 @pytest.mark.parametrize("special", ["/dev/zero", "fifo"])
 def test_trace_that_is_not_a_regular_file_is_refused(tmp_path, special):
-    from swarmactors.replay import Replay
-    from swarmactors.trace import TraceError, iter_trace
+    from swarmactors.oracle.trace import TraceError, iter_trace
+    from swarmactors.tools.replay import Replay
 
     path = Path(special)
     if special == "fifo":
@@ -1058,7 +1066,7 @@ def test_trace_that_is_not_a_regular_file_is_refused(tmp_path, special):
 
 def test_a_real_zstd_trace_still_replays(tmp_path):
     """The bounds leave ordinary traces alone: a compressed trace replays, its copy written while it is checked."""
-    from swarmactors.replay import Replay
+    from swarmactors.tools.replay import Replay
 
     path = write_small_trace(tmp_path / "trace.msgpack", compress=True)
     replay = Replay(path)
@@ -1100,7 +1108,7 @@ def _bad_run(args: list[str], capsys) -> tuple[int, str, float]:
                                   "map-symlink-loop"])
 def test_map_bomb_is_refused_in_seconds_naming_file_and_key(tmp_path, capsys, case):
     """``run`` with a map that never ends, waits forever, or would not fit in memory: exit 2 within seconds."""
-    from swarmactors.maps import MAX_MAP_BYTES, MAX_MAP_CELLS
+    from swarmactors.runs.maps import MAX_MAP_BYTES, MAX_MAP_CELLS
 
     key, value, names = "world.map.file", None, None
     if case == "dev-zero":
@@ -1141,8 +1149,8 @@ def test_scenario_that_is_a_symlink_loop_is_refused_naming_it(tmp_path, capsys):
 
 
 def test_map_limits_are_checked_before_reading_or_allocating():
-    """Pure rules of swarmactors/maps.py: cells before rows, and a maze's grid before it is built."""
-    from swarmactors.maps import MAX_MAP_CELLS, MapError, maze, parse_map
+    """Pure rules of swarmactors/runs/maps.py: cells before rows, and a maze's grid before it is built."""
+    from swarmactors.runs.maps import MAX_MAP_CELLS, MapError, maze, parse_map
 
     side = int(MAX_MAP_CELLS ** 0.5)
     with pytest.raises(MapError, match="x 3 layers"):

@@ -30,10 +30,10 @@ import zenoh
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from swarmactors.host import RobotHost
-from swarmactors.launcher import new_run_id, run_world
-from swarmactors.scenario import resolve, resolve_scenario
-from swarmactors.trace import TraceError, TraceWriter, iter_trace, read_trace, verify
+from swarmactors.oracle.trace import TraceError, TraceWriter, iter_trace, read_trace, verify
+from swarmactors.robot.host import RobotHost
+from swarmactors.runs.launcher import new_run_id, run_world
+from swarmactors.runs.scenario import resolve, resolve_scenario
 from tests_support import FakeLink
 from transport import Endpoints, Keys, Link, MalformedMessage, make_config, pack, seal, unpack
 from transport.codec import unpack_map

@@ -482,8 +482,8 @@ def test_addition_through_the_control_interface(tmp_path):
     """A robot added at run time by the world's ``control`` queryable joins like one from a scenario event."""
     import asyncio
 
-    from swarmactors.launcher import new_run_id, run_world
-    from swarmactors.scenario import resolve_scenario
+    from swarmactors.runs.launcher import new_run_id, run_world
+    from swarmactors.runs.scenario import resolve_scenario
     from transport import Endpoints, pack, unpack
 
     raw = join_scenario(ring(5), [0.0, 0.0])
@@ -572,7 +572,7 @@ def test_validate_rejects_bad_parameters():
 
 def test_range_and_dt_are_the_scenarios_not_parameters():
     """The radio range and the tick length come from the scenario (ctx.range, ctx.dt), never from parameters."""
-    from swarmactors.scenario import ScenarioError, resolve_scenario
+    from swarmactors.runs.scenario import ScenarioError, resolve_scenario
 
     for key in ("range", "dt"):
         with pytest.raises(ScenarioError, match=key):
@@ -588,7 +588,7 @@ def test_range_and_dt_are_the_scenarios_not_parameters():
 
 def test_a_robot_whose_range_cannot_hold_two_regions_fails_at_start():
     """A robot added at run time (the control queryable) skips the loader: on_start fails it with the reason."""
-    from swarmactors.behavior import Context
+    from swarmactors.robot.behavior import Context
 
     ctx = Context(0, np.random.default_rng(0), "lockstep", dt=0.5, radio_range=0.5, sensing_range=0.5)
     with pytest.raises(ValueError, match="too large for the radio range 0.5"):

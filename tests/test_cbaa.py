@@ -253,7 +253,7 @@ def test_table_rules():
     ({"use": "cbaa"}, "tasks"),
 ])
 def test_bad_parameters_are_scenario_errors(beh, needle):
-    from swarmactors.scenario import ScenarioError, resolve_scenario
+    from swarmactors.runs.scenario import ScenarioError, resolve_scenario
 
     with pytest.raises(ScenarioError, match=needle):
         resolve_scenario({"run": {"ticks": 3}, "robots": [{"count": 2, "behaviors": [beh]}]}, "t.toml")

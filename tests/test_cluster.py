@@ -126,7 +126,7 @@ def test_a_worker_killed_mid_trial_is_rescheduled_and_each_row_appears_once(clus
 
 @pytest.mark.slow
 def test_check_flooding_quick_on_the_cluster(cluster, tmp_path):
-    from swarmactors.conformance import select
+    from swarmactors.runs.conformance import select
     from test_pins import CASE_PINS
 
     address, _ = cluster
@@ -197,7 +197,7 @@ def test_a_sweep_file_with_an_unknown_key_exits_2_naming_file_and_key(tmp_path, 
 
 
 def test_a_sweep_file_is_the_sweep_of_its_options(tmp_path):
-    from swarmactors.sweep import plan
+    from swarmactors.tools.sweep import plan
 
     (tmp_path / "cl.toml").write_text(SCENARIO)
     spec = tmp_path / "exp.toml"
@@ -245,7 +245,7 @@ def test_compose_cluster_profile_runs_a_sweep_submitted_from_the_host(scenario, 
         assert up.returncode == 0, up.stderr
         from distributed import Client
 
-        from swarmactors.cluster import tls_security
+        from swarmactors.runs.cluster import tls_security
 
         deadline = time.monotonic() + 120
         while True:  # the published port answers before the scheduler inside does
@@ -280,7 +280,7 @@ def test_compose_cluster_profile_runs_a_sweep_submitted_from_the_host(scenario, 
 
 @pytest.mark.slow
 def test_a_failing_or_crashing_task_is_recorded_once_and_not_retried(cluster, tmp_path):
-    from swarmactors.cluster import Job, run_jobs
+    from swarmactors.runs.cluster import Job, run_jobs
 
     address, client = cluster
     log = tmp_path / "ran.txt"
@@ -397,7 +397,7 @@ def test_a_sweep_of_a_trial_function_is_checked_before_it_starts(tmp_path, capsy
 def test_cluster_certificates_and_what_a_tls_address_needs(tmp_path, capsys, monkeypatch):
     from cryptography import x509
 
-    from swarmactors.cluster import tls_security
+    from swarmactors.runs.cluster import tls_security
 
     assert main(["cluster-certs", str(tmp_path / "c"), "--name", "dask.example"]) == 0
     folder = tmp_path / "c"

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from swarmactors import Scenario
-from swarmactors.conformance import case_by_name, families, run_case
+from swarmactors.runs.conformance import case_by_name, families, run_case
 
 TESTS = Path(__file__).resolve().parent
 

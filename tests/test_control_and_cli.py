@@ -11,8 +11,8 @@ import textwrap
 
 import pytest
 
-from swarmactors.launcher import new_run_id, run_world
-from swarmactors.scenario import resolve_scenario
+from swarmactors.runs.launcher import new_run_id, run_world
+from swarmactors.runs.scenario import resolve_scenario
 from transport import Endpoints, pack, unpack
 
 pytestmark = pytest.mark.slow  # every test runs a world over Zenoh (in process or as CLI processes)

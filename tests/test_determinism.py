@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from swarmactors.trace import verify
+from swarmactors.oracle.trace import verify
 
 pytestmark = pytest.mark.slow  # every test runs scenarios over Zenoh
 

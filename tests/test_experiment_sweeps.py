@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from swarmactors.sweep import plan, read_spec, returned_values, run_sweep
+from swarmactors.tools.sweep import plan, read_spec, returned_values, run_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "benchmarks"

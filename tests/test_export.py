@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from swarmactors import export as ex
 from swarmactors.cli import main
-from swarmactors.result import Result
+from swarmactors.oracle.result import Result
+from swarmactors.tools import export as ex
 
 RECORDS = [
     {"t": 0, "pos": [[0, 0.0, 0.0], [1, 1.0, 0.0]], "status": {0: {"role": "leader"}},
@@ -200,7 +200,7 @@ WALK = {
 
 @pytest.mark.slow
 def test_exported_heading_is_the_worlds_for_robots_away_from_the_bounds(tmp_path):
-    from swarmactors.launcher import run
+    from swarmactors.runs.launcher import run
 
     result = run(WALK, out=tmp_path / "walk", processes=0)
     _, rows = ex.tables(result)["poses"]

@@ -10,9 +10,9 @@ import warnings
 
 import pytest
 
-from swarmactors import plugins
-from swarmactors.family import Family
-from swarmactors.plugins import BEHAVIORS, CHECKS, COMMANDS, PluginError
+from swarmactors.robot import plugins
+from swarmactors.robot.family import Family
+from swarmactors.robot.plugins import BEHAVIORS, CHECKS, COMMANDS, PluginError
 
 
 @pytest.fixture
@@ -39,7 +39,7 @@ def test_the_shipped_families_register_what_the_per_name_groups_did():
     assert {"core", "flooding", "relays", "tsc", "beacon", "mobility", "secs"} <= set(plugins.families())
     assert not plugins.broken_families()
     assert plugins.available(BEHAVIORS)["relays"] == "protocols.relays.behavior:Relays"
-    assert plugins.available(CHECKS)["world.no_collisions"] == "swarmactors.world_checks:no_collisions"
+    assert plugins.available(CHECKS)["world.no_collisions"] == "swarmactors.oracle.world_checks:no_collisions"
     assert plugins.available(COMMANDS) == {"schedule": "protocols.tsc.schedule_cli"}
     assert plugins.family_of(CHECKS, "relays.healed") == "relays" and plugins.family_of(BEHAVIORS, "rl") == "core"
     assert len(plugins.available(BEHAVIORS)) == 16 and len(plugins.available(CHECKS)) == 39
@@ -56,7 +56,7 @@ def test_a_family_object_refuses_what_is_not_a_name_and_a_path():
 
 def test_a_name_two_families_register_is_refused_naming_both(install):
     install("clash", {"swarmactors.families": {"aaa": "clash_fam:FAMILY"}},
-            {"clash_fam": "from swarmactors.family import Family\n"
+            {"clash_fam": "from swarmactors.robot.family import Family\n"
                           "FAMILY = Family(name='aaa', behaviors={'flooding': 'clash_fam:X'})\n"})
     broken = plugins.broken_families()
     assert "'flooding'" in broken["aaa"] and "'aaa'" in broken["aaa"] and "'flooding' refused" not in broken["aaa"]
@@ -69,7 +69,7 @@ def test_a_family_that_cannot_load_is_reported_and_the_others_work(install):
     install("bad", {"swarmactors.families": {"bad": "bad_fam:FAMILY", "notfam": "bad_fam2:FAMILY"}},
             {"bad_fam": "raise RuntimeError('on purpose')\n", "bad_fam2": "FAMILY = 3\n"})
     broken = plugins.broken_families()
-    assert "RuntimeError: on purpose" in broken["bad"] and "not a swarmactors.family.Family" in broken["notfam"]
+    assert "RuntimeError: on purpose" in broken["bad"] and "not a swarmactors.robot.family.Family" in broken["notfam"]
     assert "relays" in plugins.families()
     with pytest.raises(PluginError, match="family 'bad' not loaded: .*on purpose"):
         plugins.resolve(BEHAVIORS, "nothing_such")
@@ -102,9 +102,9 @@ def test_reading_every_family_imports_no_oracle_nor_the_scenario_loader():
     import subprocess
     import sys
 
-    code = ("import sys\nfrom swarmactors.plugins import BEHAVIORS, available\navailable(BEHAVIORS)\n"
+    code = ("import sys\nfrom swarmactors.robot.plugins import BEHAVIORS, available\navailable(BEHAVIORS)\n"
             "print(sorted(m for m in sys.modules if m.split('.')[0] in {'networkx', 'scipy', 'matplotlib'}"
-            " or m.startswith(('swarmactors.conformance', 'swarmactors.scenario', 'protocols.tsc.schedule'))"
+            " or m.startswith(('swarmactors.runs.conformance', 'swarmactors.runs.scenario', 'protocols.tsc.schedule'))"
             " or m.endswith('.oracle')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]", out.stdout

@@ -7,8 +7,8 @@ import time
 
 import pytest
 
-from swarmactors.launcher import new_run_id, run_world, spawn_hosts
-from swarmactors.scenario import resolve_scenario
+from swarmactors.runs.launcher import new_run_id, run_world, spawn_hosts
+from swarmactors.runs.scenario import resolve_scenario
 from transport import Endpoints
 
 pytestmark = pytest.mark.slow  # every test runs a world over Zenoh

@@ -25,7 +25,7 @@ import aiohttp
 import pytest
 
 from swarmactors.cli import main
-from swarmactors.trace import TraceWriter, iter_offsets, iter_trace
+from swarmactors.oracle.trace import TraceWriter, iter_offsets, iter_trace
 
 pytest.importorskip("foxglove")
 mcap_reader = pytest.importorskip("mcap.reader")
@@ -272,7 +272,7 @@ def _schema_bytes(channel: dict) -> bytes:
 
 
 async def test_a_replay_played_live_sends_every_tick_as_the_mcap_holds_it(tmp_path):
-    from swarmactors.foxglove_live import FoxgloveFeed
+    from swarmactors.tools.foxglove_live import FoxgloveFeed
 
     run = _write_run(tmp_path / "run")
     assert main(["export", str(run), "--format", "mcap"]) == 0

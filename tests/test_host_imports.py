@@ -1,4 +1,4 @@
-"""Robot hosts run without the oracle: no networkx, no scipy, no ``swarmactors.conformance`` (issue 13).
+"""Robot hosts run without the oracle: no networkx, no scipy, no ``swarmactors.runs.conformance`` (issue 13).
 
 Nor the ``[foxglove]`` extra (foxglove-sdk, mcap): the MCAP export and the live Foxglove feed run beside the world.
 Nor the ``[rl]`` extra (pettingzoo, gymnasium): the ``rl`` behaviour loads without it (swarmactors/rl/behavior.py).
@@ -24,18 +24,18 @@ SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 SHIPPED = ["beacon", "biconnectivity-check", "cbaa", "flooding", "roles-aat", "roles-patrol", "stigmergy"]
 ORACLE = ("sorted(m for m in sys.modules"
           " if m.split('.')[0] in {'networkx', 'scipy', 'foxglove', 'mcap', 'pettingzoo', 'gymnasium'}"
-          " or m.startswith('swarmactors.conformance')"
+          " or m.startswith('swarmactors.runs.conformance')"
           " or (m.startswith('protocols.') and '.experiments' in m))")  # a family's paper experiments
 
 
 def test_the_behavior_api_and_every_builtin_behaviour_load_without_the_oracle():
     """As a host does: the registry loads every family (its suite.py) to know the behaviour names."""
-    from swarmactors.plugins import BEHAVIORS, available
+    from swarmactors.robot.plugins import BEHAVIORS, available
 
     modules = sorted({target.split(":")[0] for target in available(BEHAVIORS).values()})
     assert "protocols.relays.behavior" in modules and "swarmactors.rl.behavior" in modules
-    code = ("import sys\nfrom swarmactors import Behavior, Context, Frame\nimport swarmactors.host\n"
-            "from swarmactors.plugins import BEHAVIORS, available, broken_families\n"
+    code = ("import sys\nfrom swarmactors import Behavior, Context, Frame\nimport swarmactors.robot.host\n"
+            "from swarmactors.robot.plugins import BEHAVIORS, available, broken_families\n"
             "assert available(BEHAVIORS) and not broken_families(), broken_families()\n"
             + "".join(f"import {m}\n" for m in modules) + f"print({ORACLE})")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

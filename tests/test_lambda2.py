@@ -11,7 +11,7 @@ from protocols.lambda2 import oracle
 from protocols.lambda2.behavior import Lambda2
 from protocols.lambda2.suite import complete, lambda2_scenario, star
 from swarmactors import Behavior
-from swarmactors.conformance import line, random_geometric, ring
+from swarmactors.runs.conformance import line, random_geometric, ring
 
 pytestmark = pytest.mark.slow  # every test runs scenarios over Zenoh
 
@@ -133,7 +133,7 @@ class WavePrinted(Lambda2):
 
 
 def test_the_printed_wave_update_fails_the_oracle(tmp_path):
-    from swarmactors.conformance import case_by_name, run_case
+    from swarmactors.runs.conformance import case_by_name, run_case
 
     family, case = case_by_name("lambda2", "lambda2/ring-8")
     case.scenario["robots"][0]["behaviors"][0].update(method="wave")

@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from protocols.leader_follower import oracle, suite
-from swarmactors.launcher import run
-from swarmactors.scenario import ScenarioError, resolve_scenario
+from swarmactors.runs.launcher import run
+from swarmactors.runs.scenario import ScenarioError, resolve_scenario
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 

@@ -75,7 +75,7 @@ def test_random_walk_with_persistent_headings_stays_uniform():
 @pytest.mark.slow  # a few seconds: every step asks the map
 def test_random_walk_reflects_off_obstacles_and_stays_uniform_in_the_free_space():
     """With the map known, no step enters the obstacle, and the law is uniform over the free space."""
-    from swarmactors.knownmap import KnownMap
+    from swarmactors.robot.knownmap import KnownMap
 
     block = [[1.0, 0.0], [1.5, 0.0], [1.5, 0.6], [1.0, 0.6]]  # an upright rectangle on the floor of [0,2]x[0,1]
     known = KnownMap.from_spec({"dims": 2, "obstacles": [{"xy": block, "z": None}], "map": None})

@@ -20,11 +20,11 @@ from pathlib import Path
 
 import pytest
 
-from swarmactors import hosting
 from swarmactors.cli import main
-from swarmactors.launcher import resolve_run, run_world
-from swarmactors.progress import bound_text, check_counts, check_rows, fmt, status
-from swarmactors.result import Result
+from swarmactors.oracle.result import Result
+from swarmactors.robot import hosting
+from swarmactors.runs.launcher import resolve_run, run_world
+from swarmactors.runs.progress import bound_text, check_counts, check_rows, fmt, status
 from transport import Endpoints
 from transport.auth import RUN_SECRET_ENV
 
@@ -141,7 +141,7 @@ def test_scenario_errors_name_directory_and_binary_file(tmp_path, monkeypatch, c
 
 def test_python_api_names_a_directory_given_as_scenario(tmp_path):
     import swarmactors
-    from swarmactors.scenario import ScenarioError
+    from swarmactors.runs.scenario import ScenarioError
 
     with pytest.raises(ScenarioError, match="is a directory"):
         swarmactors.run(TESTS.parent / "scenarios", out=tmp_path / "o")
@@ -431,7 +431,7 @@ def test_host_progress_lines_and_no_robot_left(tmp_path, monkeypatch):
     In one process, over real Zenoh; the second host is refused because world.max_robots is reached.
     """
     monkeypatch.setattr(hosting, "PROGRESS_EVERY_S", 0.1)
-    from swarmactors.scenario import resolve_scenario
+    from swarmactors.runs.scenario import resolve_scenario
 
     raw = {"run": {"name": "talk", "ticks": 30, "clock": "realtime", "dt": 0.05},
            "radio": {"range": 1.0, "latency_s": 0.02}, "world": {"max_robots": 2},
@@ -500,7 +500,7 @@ def test_ctrl_c_summary_says_interrupted_at_tick(tmp_path):
 
 @pytest.mark.slow
 def test_reproduce_command_works_from_any_directory(tmp_path, monkeypatch):
-    from swarmactors import conformance as cf
+    from swarmactors.runs import conformance as cf
 
     monkeypatch.syspath_prepend(str(TESTS))
     monkeypatch.chdir(TESTS)
@@ -522,7 +522,7 @@ def test_reproduce_command_works_from_any_directory(tmp_path, monkeypatch):
 
 @pytest.mark.slow
 def test_resumed_sweep_counts_the_failures_already_in_the_csv(project, monkeypatch):
-    from swarmactors import sweep as sw
+    from swarmactors.tools import sweep as sw
 
     (project / "s.toml").write_text(tiny(checks='[[checks]]\nuse = "mine:always_fails"'))
     monkeypatch.chdir(project)

@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from swarmactors.cli import main
-from swarmactors.newproject import check_name, entry_point_line, generate
+from swarmactors.tools.newproject import check_name, entry_point_line, generate
 
 ROOT = Path(__file__).resolve().parents[1]
 WING = ["__init__.py", "behavior.py", "experiments/README.md", "messages.py", "oracle.py", "rules.py",

@@ -8,8 +8,8 @@ import time
 
 import pytest
 
-from swarmactors.launcher import new_run_id, run_world
-from swarmactors.scenario import resolve_scenario
+from swarmactors.runs.launcher import new_run_id, run_world
+from swarmactors.runs.scenario import resolve_scenario
 from transport import Endpoints, Keys, make_config
 
 pytestmark = pytest.mark.slow  # runs a world over Zenoh

@@ -27,9 +27,9 @@ from rich.console import Console
 
 from swarmactors import cli as cli_module
 from swarmactors.exitcodes import EXIT_CHECK, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_RUNTIME, run_exit
-from swarmactors.progress import metric_rows, summary_table, verdict
-from swarmactors.result import Result
-from swarmactors.suggest import did_you_mean
+from swarmactors.oracle.result import Result
+from swarmactors.runs.progress import metric_rows, summary_table, verdict
+from swarmactors.tools.suggest import did_you_mean
 from test_newcomer import cli, free_port, swarmactors_proc, tiny  # the newcomer tests' helpers
 
 REPO = Path(__file__).resolve().parent.parent
@@ -344,7 +344,7 @@ def test_a_key_typo_suggests_the_right_key_or_none():
 
 def test_a_realtime_export_names_the_kind_and_size_of_every_delivered_frame(tmp_path):
     import swarmactors
-    from swarmactors.export import frame_rows
+    from swarmactors.tools.export import frame_rows
 
     result = swarmactors.run({"run": {"name": "rt", "ticks": 10, "clock": "realtime", "dt": 0.05},
                               "radio": {"range": 1.0, "latency_s": 0.01},

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from swarmactors.conformance import families, run_case
-from swarmactors.inprocess import run_inprocess
-from swarmactors.launcher import run
+from swarmactors.runs.conformance import families, run_case
+from swarmactors.runs.inprocess import run_inprocess
+from swarmactors.runs.launcher import run
 
 pytestmark = pytest.mark.slow
 
@@ -101,7 +101,7 @@ def test_shipped_scenario_trace_hash_is_pinned(name, processes, tmp_path):
 
 @pytest.mark.parametrize("name", sorted(SCENARIO_PINS))
 def test_shipped_scenario_in_process_has_the_same_pinned_hash(name, tmp_path):
-    """The Simulation and two robot runtimes in one loop, no Zenoh (swarmactors/inprocess.py): the same hash."""
+    """The Simulation and two robot runtimes in one loop, no Zenoh (swarmactors/runs/inprocess.py): the same hash."""
     assert run_inprocess(SCENARIOS / name, out=tmp_path, hosts=2)["trace_hash"] == SCENARIO_PINS[name]
 
 

@@ -6,8 +6,8 @@ import matplotlib.image as mpimg
 import numpy as np
 import pytest
 
-from swarmactors import plots
-from swarmactors.trajectories import plot_trajectories, tracks
+from swarmactors.tools import plots
+from swarmactors.tools.trajectories import plot_trajectories, tracks
 
 
 def _swarm(n: int, seed: int = 0):
@@ -80,12 +80,12 @@ def test_trajectories(tmp_path, density):
 
 def test_trajectories_of_a_large_swarm_is_a_heat_map(tmp_path, monkeypatch):
     drawn = []
-    monkeypatch.setattr("swarmactors.trajectories.LineCollection", lambda *a, **k: drawn.append(1))
+    monkeypatch.setattr("swarmactors.tools.trajectories.LineCollection", lambda *a, **k: drawn.append(1))
     plot_trajectories(_records(250, 4), tmp_path / "t.png")
     assert drawn == []
 
 
-# ---------------------------------------------------------------- GIF / MP4 frames (swarmactors.replay)
+# ---------------------------------------------------------------- GIF / MP4 frames (swarmactors.tools.replay)
 def _trace(path, n: int, ticks: int, role=True):
     """A trace on disk (no run needed): robots on the world's edges, a categorical role, one failure."""
     import msgpack
@@ -94,7 +94,7 @@ def _trace(path, n: int, ticks: int, role=True):
     header = {"trace": "swarmactors", "version": 1, "run_id": "edge", "clock": "lockstep", "seed": 1,
               "scenario": {"run": {"name": "edge"}, "radio": {"range": 1.0},
                            "world": {"bounds": [[0.0, 0.0], [side, side]]}}}
-    from swarmactors.trace import TraceHasher
+    from swarmactors.oracle.trace import TraceHasher
 
     hasher = TraceHasher()  # the footer holds the records' real hash: the replay verifies it
     with open(path, "wb") as f:
@@ -117,7 +117,7 @@ def test_animation_frames_have_a_legend_ids_and_the_whole_world(tmp_path):
     import matplotlib.pyplot as plt
     from PIL import Image
 
-    from swarmactors.replay import Replay, _scenes_along, draw_scene, frame_figure, frame_style, render
+    from swarmactors.tools.replay import Replay, _scenes_along, draw_scene, frame_figure, frame_style, render
 
     trace = _trace(tmp_path / "trace.msgpack", 8, 5)
     replay = Replay(trace)
@@ -150,8 +150,8 @@ def test_animation_frames_have_a_legend_ids_and_the_whole_world(tmp_path):
 def test_animation_of_a_numeric_field_keeps_one_scale_and_many_robots_have_no_ids(tmp_path):
     import matplotlib.pyplot as plt
 
-    from swarmactors.plots import LABEL_MAX
-    from swarmactors.replay import Replay, _scenes_along, draw_scene, frame_figure, frame_style
+    from swarmactors.tools.plots import LABEL_MAX
+    from swarmactors.tools.replay import Replay, _scenes_along, draw_scene, frame_figure, frame_style
 
     trace = _trace(tmp_path / "trace.msgpack", LABEL_MAX + 5, 3, role=False)
     replay = Replay(trace)
@@ -170,7 +170,7 @@ def test_animation_of_a_numeric_field_keeps_one_scale_and_many_robots_have_no_id
 
 
 def test_trajectories_by_a_status_field(tmp_path, monkeypatch):
-    from swarmactors.trajectories import status_track
+    from swarmactors.tools.trajectories import status_track
 
     records = _records(4, 12)
     for rec in records:
@@ -180,7 +180,7 @@ def test_trajectories_by_a_status_field(tmp_path, monkeypatch):
     assert track[1][0] is None and track[1][1] == track[1][4] == "explorer" and track[3] == [None] * 12
     drawn = []
     real = plot_trajectories.__globals__["LineCollection"]
-    monkeypatch.setattr("swarmactors.trajectories.LineCollection",
+    monkeypatch.setattr("swarmactors.tools.trajectories.LineCollection",
                         lambda segs, **k: drawn.append((len(segs), k)) or real(segs, **k))
     path = plot_trajectories(records, tmp_path / "t.png", "x", field="role")
     assert mpimg.imread(path).ndim == 3

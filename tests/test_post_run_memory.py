@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import pytest
 
-from swarmactors.charts import write_charts
-from swarmactors.plots import plot_run
-from swarmactors.result import Result
-from swarmactors.trace import read_trace
-from swarmactors.trajectories import plot_result_trajectories, status_track, thinned_records
+from swarmactors.oracle.result import Result
+from swarmactors.oracle.trace import read_trace
+from swarmactors.tools.charts import write_charts
+from swarmactors.tools.plots import plot_run
+from swarmactors.tools.trajectories import plot_result_trajectories, status_track, thinned_records
 
 pytestmark = pytest.mark.slow  # runs a world over Zenoh for its trace
 
@@ -22,7 +22,7 @@ ROLES = {
 
 @pytest.fixture(scope="module")
 def finished(tmp_path_factory):
-    from swarmactors.launcher import run
+    from swarmactors.runs.launcher import run
 
     return run(ROLES, out=tmp_path_factory.mktemp("stream") / "run", processes=0)
 

@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 import swarmactors
-from swarmactors.inprocess import run_inprocess
-from swarmactors.scenario import ScenarioError, resolve
+from swarmactors.runs.inprocess import run_inprocess
+from swarmactors.runs.scenario import ScenarioError, resolve
 from transport.scenario import Radio
 from world import Medium, Outgoing
 from world.linkrules import registered

@@ -14,10 +14,10 @@ from PIL import Image
 
 from swarmactors import Behavior
 from swarmactors.cli import main
-from swarmactors.launcher import new_run_id, run_world
-from swarmactors.replay import Replay
-from swarmactors.scenario import resolve_scenario
-from swarmactors.viewer import ReplaySource, ViewerServer
+from swarmactors.runs.launcher import new_run_id, run_world
+from swarmactors.runs.scenario import resolve_scenario
+from swarmactors.tools.replay import Replay
+from swarmactors.tools.viewer import ReplaySource, ViewerServer
 from transport import Endpoints, unpack
 
 pytestmark = pytest.mark.slow  # every test runs a world over Zenoh (or replays the trace of one)
@@ -101,7 +101,7 @@ async def test_replay_shows_the_live_positions_at_intermediate_ticks(tmp_path):
 
 
 def test_replay_events_prints_the_control_actions(tmp_path, capsys):
-    from swarmactors.trace import TraceHasher
+    from swarmactors.oracle.trace import TraceHasher
 
     hasher = TraceHasher()
     trace = tmp_path / "trace.msgpack"
@@ -182,7 +182,7 @@ def test_a_damaged_trace_is_named_with_its_offset(walk_trace, tmp_path, capsys, 
 
 
 def test_run_writes_charts_beside_result(tmp_path, run):
-    from swarmactors.charts import write_charts
+    from swarmactors.tools.charts import write_charts
 
     flood = run({"run": {"name": "f", "seed": 2, "ticks": 9},
                  "robots": [{"count": 8, "placement": "line", "spacing": 0.9,
@@ -201,7 +201,7 @@ def test_run_writes_charts_beside_result(tmp_path, run):
 
 # ------------------------------------------------------------------------------------------------ verification
 def _small_trace(tmp_path: Path) -> Path:
-    from swarmactors.launcher import run
+    from swarmactors.runs.launcher import run
 
     result = run({"run": {"name": "verify", "ticks": 4},
                   "robots": [{"count": 3, "placement": "line", "behaviors": [{"use": "beacon"}]}]},
@@ -221,8 +221,8 @@ def _rewrite(path: Path, edit) -> Path:
 
 @pytest.mark.slow
 def test_an_edited_record_or_header_is_refused_on_replay_unless_told_to_proceed(tmp_path):
-    from swarmactors.replay import Replay
-    from swarmactors.trace import TraceError, verify
+    from swarmactors.oracle.trace import TraceError, verify
+    from swarmactors.tools.replay import Replay
 
     trace = _small_trace(tmp_path)
     assert verify(trace) and Replay(trace).note is None
@@ -251,7 +251,7 @@ def test_an_edited_record_or_header_is_refused_on_replay_unless_told_to_proceed(
 ])
 def test_a_record_of_the_wrong_shape_is_an_error_with_its_offset(tmp_path, record, words):
     from swarmactors.cli import main
-    from swarmactors.trace import TraceError, read_trace
+    from swarmactors.oracle.trace import TraceError, read_trace
 
     path = tmp_path / "trace.msgpack"
     head = msgpack.packb({"trace": "swarmactors", "version": 1, "run_id": "x", "scenario": {}})
@@ -267,8 +267,8 @@ def test_a_record_of_the_wrong_shape_is_an_error_with_its_offset(tmp_path, recor
 def test_an_edited_result_json_is_an_error_naming_the_file_not_a_traceback(tmp_path, capsys):
     import json
 
-    from swarmactors.replay import Replay
-    from swarmactors.result import Result, ResultError
+    from swarmactors.oracle.result import Result, ResultError
+    from swarmactors.tools.replay import Replay
 
     trace = _small_trace(tmp_path)
     result_path = trace.parent / "result.json"

@@ -14,7 +14,7 @@ pytestmark = pytest.mark.slow  # runs a world over Zenoh for its trace
 
 def _edited_trace(tmp_path: Path) -> Path:
     """A real run's trace with one robot moved in its first tick record (so its hash no longer matches)."""
-    from swarmactors.launcher import run
+    from swarmactors.runs.launcher import run
 
     result = run({"run": {"name": "noverify", "ticks": 4},
                   "robots": [{"count": 3, "placement": "line", "behaviors": [{"use": "beacon"}]}]},

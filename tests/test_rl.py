@@ -290,7 +290,7 @@ def test_the_documented_examples_run(capsys):
 
 
 def test_the_rl_behaviour_without_an_environment_stands_still_in_an_ordinary_run(tmp_path):
-    from swarmactors.inprocess import run_inprocess
+    from swarmactors.runs.inprocess import run_inprocess
 
     sc = line([[0.0, 0.0], [2.0, 0.0]], behaviors=[{"use": "rl"}], ticks=5)
     result = run_inprocess(sc, out=tmp_path)
@@ -299,8 +299,8 @@ def test_the_rl_behaviour_without_an_environment_stands_still_in_an_ordinary_run
 
 
 def test_payloads_that_are_not_numbers_are_left_out_and_too_many_are_subsampled_by_the_robots_rng():
-    from swarmactors.behavior import Frame
     from swarmactors.rl import Observe
+    from swarmactors.robot.behavior import Frame
 
     class Ctx:
         rng = np.random.default_rng(0)

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from swarmactors.trace import read_trace, verify
+from swarmactors.oracle.trace import read_trace, verify
 
 pytestmark = pytest.mark.slow  # every test runs a world over Zenoh
 

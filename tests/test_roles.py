@@ -28,7 +28,7 @@ from protocols.roles.behavior import AATWalk, RoleSwitching
 from protocols.roles.oracle import disconnection_episodes, gabriel_brute, gabriel_edges, handover_gaps, timeline
 from protocols.roles.scenarios import aat_scenario, patrol_placement, patrol_scenario
 from swarmactors import Behavior
-from swarmactors.scenario import ScenarioError, resolve_scenario
+from swarmactors.runs.scenario import ScenarioError, resolve_scenario
 
 PATROL_CHECKS = [
     {"use": "roles.leader"},

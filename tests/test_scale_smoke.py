@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from swarmactors.launcher import run
-from swarmactors.trace import read_trace
+from swarmactors.oracle.trace import read_trace
+from swarmactors.runs.launcher import run
 
 pytestmark = pytest.mark.slow
 

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from swarmactors.launcher import run
-from swarmactors.scenario import load
+from swarmactors.runs.launcher import run
+from swarmactors.runs.scenario import load
 
 SCENARIOS = sorted((Path(__file__).resolve().parent.parent / "scenarios").glob("*.toml"))
 

@@ -17,7 +17,7 @@ import time
 import pytest
 import zenoh
 
-from swarmactors.host import RobotHost
+from swarmactors.robot.host import RobotHost
 from transport import Endpoints, Keys, Link, QueryError, Security, ensure_files, make_config, pack, seal
 
 pytestmark = pytest.mark.slow  # every test runs a secure world and hosts over Zenoh

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from swarmactors.plugins import BEHAVIORS, resolve
+from swarmactors.robot.plugins import BEHAVIORS, resolve
 
 pytestmark = pytest.mark.slow
 
@@ -85,7 +85,7 @@ def test_every_shipped_scenario_writes_every_picture_it_lists(tmp_path):
 
 
 def _reports_a_role(folder: Path) -> bool:
-    from swarmactors.result import Result
+    from swarmactors.oracle.result import Result
 
     return any("role" in changes for rec in Result.load(folder).records()
                for changes in rec.get("status", {}).values())

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import pytest
 
-from swarmactors.launcher import new_run_id, run_world
-from swarmactors.scenario import resolve_scenario
+from swarmactors.runs.launcher import new_run_id, run_world
+from swarmactors.runs.scenario import resolve_scenario
 from transport import Endpoints
 from transport.messages import Stop
 
@@ -106,7 +106,7 @@ def test_sigterm_is_handled_as_sigint(tmp_path):
     result = json.loads((out / "result.json").read_text())
     assert result["interrupted"] is True and result["stop_reason"] == "interrupted (SIGTERM)"
     assert all("beacon" in r for r in result["robots"].values())  # every robot's report came back
-    from swarmactors.trace import read_trace
+    from swarmactors.oracle.trace import read_trace
 
     _, records, footer = read_trace(out / "trace.msgpack")
     assert footer is not None and records
@@ -248,7 +248,7 @@ def test_a_lockstep_host_stalled_past_the_watchdog_is_lost_and_exits_with_one_li
 
 def test_check_runs_a_user_behaviour_in_a_host_process(tmp_path):
     """``swarmactors check --behavior module:Class`` runs the user's behaviour with K = 1 (the world survives it)."""
-    from swarmactors.conformance import case_by_name, is_user_behavior, run_case
+    from swarmactors.runs.conformance import case_by_name, is_user_behavior, run_case
 
     assert is_user_behavior("mutants:FloodBackToSender")
     assert not is_user_behavior(None) and not is_user_behavior("flooding")

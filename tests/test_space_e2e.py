@@ -15,8 +15,8 @@ import pytest
 from shapely.geometry import LineString, box
 
 from swarmactors.exitcodes import EXIT_INPUT
-from swarmactors.launcher import run
-from swarmactors.scenario import load
+from swarmactors.runs.launcher import run
+from swarmactors.runs.scenario import load
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 MAZE = SCENARIOS / "maze-flood.toml"

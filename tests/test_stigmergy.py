@@ -475,7 +475,7 @@ def test_election_realtime(run):
     ({"use": "election", "elections": [{"key": "r", "target": [0, "x"]}]}, "elections[0].target"),
 ])
 def test_bad_parameters_are_scenario_errors(beh, needle):
-    from swarmactors.scenario import ScenarioError, resolve_scenario
+    from swarmactors.runs.scenario import ScenarioError, resolve_scenario
 
     with pytest.raises(ScenarioError, match=re.escape(needle)):
         resolve_scenario({"run": {"ticks": 3}, "robots": [{"count": 2, "behaviors": [beh]}]}, "t.toml")

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from swarmactors.launcher import judge, run
-from swarmactors.result import Result
+from swarmactors.oracle.result import Result
+from swarmactors.runs.launcher import judge, run
 
 pytestmark = pytest.mark.slow  # each case runs a world over Zenoh
 

@@ -12,8 +12,8 @@ import time
 import pytest
 
 from swarmactors.cli import main
-from swarmactors.scenario import ScenarioError, load
-from swarmactors.sweep import SweepError, load_point, parse_grid, trial_seed
+from swarmactors.runs.scenario import ScenarioError, load
+from swarmactors.tools.sweep import SweepError, load_point, parse_grid, trial_seed
 
 SCENARIO = """
 [run]

@@ -26,8 +26,8 @@ def test_full_disk_for_trace_keeps_the_result(run, tmp_path):
 
 # ------------------------------------------------------------------------------------------------ issue 28
 def test_zstd_trace_has_the_same_hash_and_reads_back(tmp_path):
-    from swarmactors.launcher import run
-    from swarmactors.trace import ZSTD_MAGIC, read_trace, verify
+    from swarmactors.oracle.trace import ZSTD_MAGIC, read_trace, verify
+    from swarmactors.runs.launcher import run
 
     raw = {"run": {"name": "z", "ticks": 30},
            "robots": [{"count": 12, "placement": "line", "behaviors": [{"use": "beacon"}]}]}
@@ -40,7 +40,7 @@ def test_zstd_trace_has_the_same_hash_and_reads_back(tmp_path):
 
 
 def test_the_trace_writer_flushes_at_least_once_per_second(tmp_path, monkeypatch):
-    import swarmactors.trace as trace_mod
+    import swarmactors.oracle.trace as trace_mod
 
     clock = [100.0]
     monkeypatch.setattr(trace_mod.time, "monotonic", lambda: clock[0])

@@ -50,7 +50,7 @@ def test_the_notebook_is_stored_with_its_outputs():
 
 def test_launcher_run_fails_in_a_running_loop_and_run_anywhere_does_not(tmp_path):
     """Why the notebook needs arun: asyncio.run inside a loop raises; run_anywhere uses a worker thread."""
-    from swarmactors.notebook import run_anywhere
+    from swarmactors.tools.notebook import run_anywhere
 
     async def inside() -> None:
         coro = asyncio.sleep(0)
@@ -64,7 +64,7 @@ def test_launcher_run_fails_in_a_running_loop_and_run_anywhere_does_not(tmp_path
 
 @pytest.mark.slow
 def test_run_anywhere_inside_a_loop(tmp_path):
-    from swarmactors.notebook import run_anywhere
+    from swarmactors.tools.notebook import run_anywhere
 
     sc = {"run": {"name": "anywhere", "ticks": 3}, "radio": {"range": 1.0},
           "robots": [{"count": 3, "behaviors": [{"use": "beacon"}]}]}

@@ -19,11 +19,11 @@ import aiohttp
 import pytest
 
 from needs import require_browser
-from swarmactors.launcher import new_run_id
-from swarmactors.result import Result
-from swarmactors.scenario import resolve_scenario
-from swarmactors.trace import read_trace
-from swarmactors.viewer import ViewerServer, run_with_viewer
+from swarmactors.oracle.result import Result
+from swarmactors.oracle.trace import read_trace
+from swarmactors.runs.launcher import new_run_id
+from swarmactors.runs.scenario import resolve_scenario
+from swarmactors.tools.viewer import ViewerServer, run_with_viewer
 from transport import Endpoints
 
 pytestmark = pytest.mark.slow  # every test runs a world over Zenoh, some a browser

@@ -74,7 +74,7 @@ class RobotDescr(_Message):
     speed: float
     knows_map: bool = False  # the robot is given the run's static map (ctx.map)
     sensing_frame: Literal["global", "local"] = "global"  # local: range and bearing in its own frame
-    clock_offset: float = 0.0  # the robot's clock offset (seconds) and drift (ppm): swarmactors/robot_clock.py
+    clock_offset: float = 0.0  # the robot's clock offset (seconds) and drift (ppm): swarmactors/robot/robot_clock.py
     clock_drift: float = 0.0
 
 

@@ -3,7 +3,7 @@
 A scenario (docs/scenarios.md) is ``Scenario{run, radio, world, robots[], events[], checks[]}``. Each section is a
 msgspec ``Struct`` whose fields carry their type, default, limits and meaning: the JSON Schema that
 ``swarmactors schema`` prints and the key tables of docs/scenarios.md are generated from them. The same types hold
-the *resolved* scenario the world runs and result.json stores (``swarmactors.scenario`` places the robots, reads
+the *resolved* scenario the world runs and result.json stores (``swarmactors.runs.scenario`` places the robots, reads
 the map and checks the behaviours; ``Scenario.to_dict`` is its JSON form).
 
 The model sits below the runner and the world, which both import it; it imports nothing above ``transport``.
@@ -144,7 +144,7 @@ class Run(_Spec):
 
     @property
     def trace_mode(self) -> str:
-        """``trace`` as a trace mode: true is ``full``, false is ``off`` (swarmactors/trace.py)."""
+        """``trace`` as a trace mode: true is ``full``, false is ``off`` (swarmactors/oracle/trace.py)."""
         return ("full" if self.trace else "off") if isinstance(self.trace, bool) else self.trace
 
 

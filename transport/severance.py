@@ -6,7 +6,7 @@ pair in either order, until ``restore`` or ``heal``) or when a and b are in diff
 partition replaces the previous one; ``heal`` ends cuts and partition). The world's radio (world/radio.py)
 drops frames over a severed link as ``cut``; the charts replay the same actions from the trace's ``ev`` lists
 (``apply``) and leave severed links out. The oracle (``Result.graph_at``) keeps its own replay
-(``swarmactors.result.Severed``), compared with this one by tests/unit/test_graph_at.py, so that a bug in one
+(``swarmactors.oracle.result.Severed``), compared with this one by tests/unit/test_graph_at.py, so that a bug in one
 does not hide in both. Numpy only: no networkx, no scipy.
 """
 

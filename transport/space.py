@@ -326,7 +326,7 @@ def convex(xy: np.ndarray) -> bool:
 
 
 def space_from_spec(world: dict) -> Space:
-    """The ``Space`` of a resolved ``[world]`` section (``obstacles`` and ``map``; see swarmactors.maps)."""
+    """The ``Space`` of a resolved ``[world]`` section (``obstacles`` and ``map``; see swarmactors.runs.maps)."""
     flat = world["dims"] == 2
     prisms = [Prism(np.asarray(o["xy"], dtype=float), _extent(o.get("z")), o.get("loss_db"))
               for o in world.get("obstacles") or []]

@@ -1,7 +1,7 @@
 """The simulation core: robots, radio, space and faults, stepped tick by tick, with no I/O.
 
 A ``Simulation`` knows no Zenoh, no asyncio, no keys and no wall-clock timer: a session (world/session.py) or
-the in-process driver (swarmactors/inprocess.py) feeds it and reads it. One tick, top to bottom (like ARGoS's
+the in-process driver (swarmactors/runs/inprocess.py) feeds it and reads it. One tick, top to bottom (like ARGoS's
 step):
 
 1. ``begin(tick, now)``: the actions due now (scenario ``[[events]]``, then ``control``; world/faults.py), radio

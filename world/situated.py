@@ -15,7 +15,7 @@ A robot group's keys (docs/scenarios.md) choose, per robot:
   carries the range and bearing at which its receiver heard it, from the positions at the send tick, in the
   receiver's body frame, with the receiver's noise.
 * ``clock_offset`` (seconds) and ``clock_drift`` (ppm): drawn here, applied by the robot's host
-  (swarmactors/robot_clock.py).
+  (swarmactors/robot/robot_clock.py).
 
 A value given as ``[lo, hi]`` is drawn uniformly per robot, keyed on (seed, SITUATED, robot id, what), so a
 robot's draws depend neither on the process layout nor on other robots. Noise is keyed on (seed, tick,

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from swarmactors.bodies import Bodies, Body, Num
+from swarmactors.robot.bodies import Bodies, Body, Num
 
 KIND = "BEACON"
 

@@ -2,6 +2,6 @@
 
 from __future__ import annotations
 
-from swarmactors.family import Family
+from swarmactors.robot.family import Family
 
 FAMILY = Family(name="beacon", behaviors={"beacon": "protocols.beacon.behavior:Beacon"})

@@ -9,7 +9,7 @@ import numpy as np
 
 from protocols.biconnectivity.geometry import _region_problem, join_position, prox, removal_distance
 from swarmactors import Behavior, Context, Frame
-from swarmactors.behavior import is_int, is_num
+from swarmactors.robot.behavior import is_int, is_num
 
 CR, DCR = "CR", "DCR"
 CHECK_REQUEST, DC_TRUE, DC_FALSE = "CHECK-REQUEST", "DC-TRUE", "DC-FALSE"

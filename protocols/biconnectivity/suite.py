@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from swarmactors.family import Case, Family, comb, ladder, line, ring
+from swarmactors.robot.family import Case, Family, comb, ladder, line, ring
 
 
 # ------------------------------------------------------------------ conformance suite
@@ -25,7 +25,7 @@ def suite(mode: str) -> list[Case]:
 
     Graphs stay small: the relay enumerates simple paths.
     """
-    from swarmactors.conformance import random_geometric  # draws until connected: when cases are built
+    from swarmactors.runs.conformance import random_geometric  # draws until connected: when cases are built
 
     bowtie = [[0.0, 0.0], [0.8, 0.4], [0.0, 0.8], [1.6, 0.0], [1.6, 0.8]]  # two triangles sharing robot 1
     two_rings = ring(5) + [[x + 20.0, y] for x, y in ring(5)]

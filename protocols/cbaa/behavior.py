@@ -7,8 +7,8 @@ from collections import Counter
 from protocols.cbaa.messages import BODIES, Bid
 from protocols.cbaa.rules import KIND, NEG_INF, RESET, SCORES, UPDATE, decide, pair, score_row
 from swarmactors import Behavior, Context, Frame
-from swarmactors.behavior import is_int, is_num
-from swarmactors.bodies import UNSET
+from swarmactors.robot.behavior import is_int, is_num
+from swarmactors.robot.bodies import UNSET
 
 
 # ------------------------------------------------------------------ the behaviour
@@ -18,7 +18,7 @@ class CBAA(Behavior):
     name = "cbaa"
     kinds = (KIND,)
     plot_field = "task"
-    plot_marks = {"tasks": "task"}  # the run plot draws the tasks; ``task`` indexes them (swarmactors.plots)
+    plot_marks = {"tasks": "task"}  # the run plot draws the tasks; ``task`` indexes them (swarmactors.tools.plots)
 
     def __init__(self, tasks: list, at: int = 0, score: str = "inverse", scale: float = 1.0,
                  scores: list | None = None, consensus: str = "auto", every: int = 1,

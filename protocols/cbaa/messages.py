@@ -5,7 +5,7 @@ from __future__ import annotations
 from msgspec import field
 
 from protocols.cbaa.rules import KIND
-from swarmactors.bodies import UNSET, Bodies, Body, Finite, Index, NonNeg, UnsetType
+from swarmactors.robot.bodies import UNSET, Bodies, Body, Finite, Index, NonNeg, UnsetType
 
 
 class Bid(Body, kw_only=True):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from swarmactors.plugins import Rules
+from swarmactors.robot.plugins import Rules
 
 KIND = "BID"
 NEG_INF = float("-inf")

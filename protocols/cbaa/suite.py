@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from swarmactors.family import Case, Family, comb, ladder, line, ring
+from swarmactors.robot.family import Case, Family, comb, ladder, line, ring
 
 
 def _cbaa_case(name: str, positions: list, tasks: list, *, clock="lockstep", loss=0.0, seed=1,
@@ -28,7 +28,7 @@ def _tasks(n: int, seed: int, spread: float) -> list[list[float]]:
 
 def suite(mode: str) -> list[Case]:
     """Static networks of several shapes, fewer and more tasks than robots, both clocks, loss."""
-    from swarmactors.conformance import random_geometric  # draws until connected: when cases are built
+    from swarmactors.runs.conformance import random_geometric  # draws until connected: when cases are built
 
     ties = [[0.4 + 0.8 * i, 0.0] for i in range(5)]  # each task equidistant from two robots: equal bids
     cases = [

@@ -6,7 +6,7 @@ from collections import Counter
 
 from protocols.flooding.messages import BODIES, KIND, Flood
 from swarmactors import Behavior, Context, Frame
-from swarmactors.bodies import UNSET
+from swarmactors.robot.bodies import UNSET
 
 
 class Flooding(Behavior):

@@ -6,7 +6,7 @@ from typing import Any
 
 from msgspec import field
 
-from swarmactors.bodies import UNSET, Bodies, Body, Num, UnsetType
+from swarmactors.robot.bodies import UNSET, Bodies, Body, Num, UnsetType
 
 KIND = "FLOOD"
 

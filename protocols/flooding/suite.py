@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from swarmactors.family import Case, Family, comb, ladder, line, ring
+from swarmactors.robot.family import Case, Family, comb, ladder, line, ring
 
 
 def _flood_case(name: str, positions: list, checks: list[str], *, expiry=4, loss=0.0, clock="lockstep",
@@ -21,7 +21,7 @@ def _flood_case(name: str, positions: list, checks: list[str], *, expiry=4, loss
 
 def suite(mode: str) -> list[Case]:
     """Graph families x clocks x loss x faults; ``quick`` is a small subset of ``full``."""
-    from swarmactors.conformance import random_geometric  # draws until connected: when cases are built
+    from swarmactors.runs.conformance import random_geometric  # draws until connected: when cases are built
 
     exact = ["flooding.reach", "flooding.forwarding"]
     lossy = ["flooding.delivered", "flooding.forwarding"]

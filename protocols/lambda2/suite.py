@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from swarmactors.family import Case, Family, line, ring
+from swarmactors.robot.family import Case, Family, line, ring
 
 
 def star(n: int, radius: float = 0.95) -> list[list[float]]:
@@ -54,7 +54,7 @@ def _case(name: str, positions: list, ticks: int, checks: list[dict], **kw) -> C
 
 def suite(mode: str) -> list[Case]:
     """Lossless graph families within 1 % (the stated iteration), a disconnected pair, loss, realtime."""
-    from swarmactors.conformance import random_geometric  # draws until connected: when cases are built
+    from swarmactors.runs.conformance import random_geometric  # draws until connected: when cases are built
 
     acc = [{"use": "lambda2.accurate", "tol": 1.0}, {"use": "lambda2.robust"}]
     cases = [

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from swarmactors.family import Case, Family
+from swarmactors.robot.family import Case, Family
 
 # Table 1 (§5): followers 1–6, then 7–10 alike. (ρ, ρ′, ρ″, ρ‴, size, U)
 TABLE1 = [(5.00, 4.65, 0.55, 0.20, 0.20, 0.90), (4.00, 3.55, 0.75, 0.30, 0.30, 0.60),

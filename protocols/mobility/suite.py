@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from swarmactors.family import Family
+from swarmactors.robot.family import Family
 
 FAMILY = Family(name="mobility", behaviors={"random_waypoint": "protocols.mobility.behavior:RandomWaypoint",
                                             "random_walk": "protocols.mobility.behavior:RandomWalk"})

@@ -55,7 +55,7 @@ from protocols.stigmergy.behavior import Election
 from protocols.stigmergy.table import KINDS as VS_KINDS
 from protocols.stigmergy.table import Stigmergy
 from swarmactors import Behavior, Context, Frame
-from swarmactors.behavior import is_int, is_num
+from swarmactors.robot.behavior import is_int, is_num
 
 CHAIN, TASK, BID, JOIN, NEED = "REL_CHAIN", "REL_TASK", "REL_BID", "REL_JOIN", "REL_NEED"
 ROOT, WORKER, NETWORKER, FREE = "root", "worker", "networker", "free"
@@ -89,7 +89,7 @@ class Relays(Behavior):
     name = "relays"
     kinds = (*VS_KINDS, CHAIN, TASK, BID, JOIN, NEED)
     plot_field = "role"
-    plot_marks = {"targets": "target"}  # the run plot draws the targets (swarmactors.plots)
+    plot_marks = {"targets": "target"}  # the run plot draws the targets (swarmactors.tools.plots)
 
     def __init__(self, targets: list, root: int = 0, at: int = 1, ds: float = 1.4, dc: float = 1.6,
                  db: float = 1.8, vmax: float = 0.5, rcol: float = 0.25, plan_time: float = 2.0,

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from swarmactors.family import Case, Family
+from swarmactors.robot.family import Case, Family
 
 # The paper's parameters (002 Sec. V); our tick is dt = 0.2 s (ARGoS' step is 0.1 s).
 PAPER = {"ds": 1.4, "dc": 1.6, "db": 1.8, "vmax": 0.5, "rcol": 0.25}
@@ -112,7 +112,7 @@ def window_scenario(flying: int = 9, ground: int = 1, *, ticks: int = 450, seed:
 
 
 def maze_cells(cols: int, rows: int, corridor: int = 2, wall: int = 1, cell: float = 1.0):
-    """Centre of maze cell (c, r) (r = 0 the top row, as ``swarmactors.maps.maze`` draws it), in world units."""
+    """Centre of maze cell (c, r) (r = 0 the top row, as ``swarmactors.runs.maps.maze`` draws it), in world units."""
     step, height = corridor + wall, rows * (corridor + wall) + wall
 
     def centre(c: int, r: int) -> list[float]:
@@ -129,7 +129,7 @@ def maze_scenario(n: int = 16, cols: int = 3, rows: int = 3, *, maze_seed: int =
     around the root inside the corridors. Every robot knows the map (``knows_map``); the planning area is
     the map's extent.
     """
-    from swarmactors.maps import maze
+    from swarmactors.runs.maps import maze
 
     plan = maze(cols, rows, seed=maze_seed, corridor=corridor, wall=wall)
     h = len(plan)

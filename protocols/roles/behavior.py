@@ -56,8 +56,8 @@ from protocols.roles.rules import (
     role_change_request,
 )
 from swarmactors import Behavior, Context, Frame
-from swarmactors.behavior import is_int, is_num
-from swarmactors.bodies import UNSET
+from swarmactors.robot.behavior import is_int, is_num
+from swarmactors.robot.bodies import UNSET
 
 # ------------------------------------------------------------------ roles and message kinds
 ROLE_CODE = {BS: 0, RP: 1, LL: 2, EX: 3}

@@ -10,7 +10,7 @@ from typing import Any, Literal
 
 from msgspec import field
 
-from swarmactors.bodies import UNSET, Bodies, Body, Finite, UnsetType
+from swarmactors.robot.bodies import UNSET, Bodies, Body, Finite, UnsetType
 
 STATE = "RS_STATE"  # every tick, to the robots in A_i: role, position, velocity, control input, |A_i|, epoch
 LL_INFO = "RS_LL"  # the local leader's u_LL and x_LL, by message-expiration flooding (Sec. III-C)

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field, fields
 from typing import Any
 
 from protocols.roles.aat import MODES, PROPOSED
-from swarmactors.behavior import is_int, is_num
+from swarmactors.robot.behavior import is_int, is_num
 
 # kinds of value (a field's ``metadata["kind"]``) and what each accepts
 ROBOT_ID, FRACTION, POSITIVE, GAIN, COUNT, MODE, TARGETS, WITNESSES, FLAG = (

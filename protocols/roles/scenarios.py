@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from swarmactors.scenario import draw_until_connected
+from swarmactors.runs.scenario import draw_until_connected
 
 # Values the paper gives (Sec. III-C, IV-B) and the ones we chose where it gives none (docs/protocols/roles.md).
 SPEED = 0.03  # length units per timestep (paper)

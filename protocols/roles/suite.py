@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from swarmactors.family import Case, Family
+from swarmactors.robot.family import Case, Family
 
 LOSSLESS = [{"use": "roles.leader"}, {"use": "roles.chain"}, {"use": "roles.gabriel", "grace": 2},
             {"use": "roles.disconnections", "max_recovery": 60}]

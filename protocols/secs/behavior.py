@@ -30,7 +30,7 @@ import math
 from protocols.secs import rules
 from protocols.secs.messages import BODIES, M_KIND, T_KIND, Bearings, Target
 from swarmactors import Behavior
-from swarmactors.bodies import UNSET
+from swarmactors.robot.bodies import UNSET
 
 STALE = 5  # ticks after which a neighbour's last message is not used
 CLOSE = 0.4  # m: a circling robot also feels the Lennard-Jones push of robots closer than this

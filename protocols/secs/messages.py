@@ -14,7 +14,7 @@ from typing import Annotated, Any, Union
 import msgspec
 from msgspec import Meta, field
 
-from swarmactors.bodies import UNSET, Bodies, Body, Finite, Index, NonNeg, Num, UnsetType
+from swarmactors.robot.bodies import UNSET, Bodies, Body, Finite, Index, NonNeg, Num, UnsetType
 
 T_KIND = "SECS_T"
 M_KIND = "SECS_M"

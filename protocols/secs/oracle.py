@@ -21,8 +21,8 @@ import numpy as np
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial.distance import cdist
 
-from swarmactors.checks import Outcome
-from swarmactors.result import Result
+from swarmactors.oracle.checks import Outcome
+from swarmactors.oracle.result import Result
 
 
 def _tasks(result: Result, prefix: str = "task") -> list[tuple[str, np.ndarray]]:

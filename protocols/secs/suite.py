@@ -9,7 +9,7 @@ connectivity at every tick, the task reached, no collision of the 10 cm bodies, 
 from __future__ import annotations
 
 from protocols.secs.scenarios import secs_scenario
-from swarmactors.family import Case, Family
+from swarmactors.robot.family import Case, Family
 
 ALL = [{"use": "secs.connected"}, {"use": "secs.reach"}, {"use": "world.no_collisions"},
        {"use": "secs.angle", "bound": 0.05}]

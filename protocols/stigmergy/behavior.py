@@ -9,7 +9,7 @@ from typing import Any
 
 from protocols.stigmergy.table import CONFLICT_RULES, KINDS, Stigmergy, Table, _is_key, lower_value, sortable
 from swarmactors import Behavior, Context, Frame
-from swarmactors.behavior import is_int
+from swarmactors.robot.behavior import is_int
 
 
 # ------------------------------------------------------------------ scripted writes

@@ -10,7 +10,7 @@ from typing import Annotated, Any, Union
 
 from msgspec import Meta
 
-from swarmactors.bodies import Bodies, Body, Index
+from swarmactors.robot.bodies import Bodies, Body, Index
 
 PUT = "VS_PUT"
 QUERY = "VS_QUERY"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from swarmactors.family import Case, Family, comb, line, ring
+from swarmactors.robot.family import Case, Family, comb, line, ring
 
 
 # ------------------------------------------------------------------ conformance suite
@@ -33,7 +33,7 @@ def _writes(n: int, seed: int, count: int = 6) -> list[dict]:
 
 def suite(mode: str) -> list[Case]:
     """Writes, conflicts and deletes on several graphs; loss with anti-entropy; two components; both clocks."""
-    from swarmactors.conformance import random_geometric  # draws until connected: when cases are built
+    from swarmactors.runs.conformance import random_geometric  # draws until connected: when cases are built
 
     exact = [{"use": "stigmergy.consistent", "within": 40}, {"use": "stigmergy.latency"}]
     repaired = [{"use": "stigmergy.consistent"}]

@@ -9,8 +9,8 @@ from typing import Any, NamedTuple
 
 from protocols.stigmergy.messages import BODIES, DIGEST, KINDS, PUT, QUERY, Digest, Put, Query
 from swarmactors import Context, Frame
-from swarmactors.behavior import is_int
-from swarmactors.plugins import Rules
+from swarmactors.robot.behavior import is_int
+from swarmactors.robot.plugins import Rules
 
 SEEN_QUERIES = 4096  # unknown-key queries remembered for Q1
 

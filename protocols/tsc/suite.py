@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from swarmactors.family import Family
+from swarmactors.robot.family import Family
 
 FAMILY = Family(name="tsc", commands={"schedule": "protocols.tsc.schedule_cli"},
                 description="Panerati et al.'s Task Scheduling Controller (TCTM/TDSM MILPs): swarmactors schedule")

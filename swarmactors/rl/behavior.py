@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from swarmactors.behavior import Behavior, Context, Frame
+from swarmactors.robot.behavior import Behavior, Context, Frame
 
 KIND = "rl"  # the message kind of payloads broadcast by ``act``
 CHANNELS = ("pose", "neighbors", "messages", "rays", "objects")  # what an observation may hold

@@ -1,6 +1,6 @@
 """The swarm as a PettingZoo ``ParallelEnv``: each robot running ``RLBehavior`` is an agent (docs/rl.md).
 
-The environment steps a lockstep run in this process (``swarmactors.inprocess.InProcessRun``): the world's
+The environment steps a lockstep run in this process (``swarmactors.runs.inprocess.InProcessRun``): the world's
 ``Simulation`` and the robots' runtimes, with nothing in between. One environment step is one tick, split where
 the policy decides:
 
@@ -26,10 +26,10 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from swarmactors.inprocess import InProcessRun
-from swarmactors.launcher import resolve_run
 from swarmactors.rl.behavior import CHANNELS, Observe, RLBehavior
 from swarmactors.rl.tasks import Reward, Task, Truth, as_task
+from swarmactors.runs.inprocess import InProcessRun
+from swarmactors.runs.launcher import resolve_run
 from transport.messages import RobotOut
 from transport.scenario import Scenario
 

@@ -20,7 +20,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from swarmactors.scenario import mutual_links
+from swarmactors.runs.scenario import mutual_links
 
 
 @dataclass(frozen=True)
@@ -52,7 +52,7 @@ class Truth:
     def links(self, ids: list[int] | None = None) -> list[tuple[int, int]]:
         """Mutual radio links (a, b), a < b, between the alive robots of ``ids`` (default: the agents), by robot id.
 
-        The world's own rule (each within the other's range; ``swarmactors.scenario.mutual_links``), without
+        The world's own rule (each within the other's range; ``swarmactors.runs.scenario.mutual_links``), without
         occlusion, cuts or loss.
         """
         ids = [i for i in (list(self.agents.values()) if ids is None else ids) if self.alive[i]]

@@ -15,10 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from swarmactors.behavior import Behavior, Context, Frame, params_problem
-from swarmactors.knownmap import KnownMap
-from swarmactors.plugins import RefusedBehavior, resolve_behavior
-from swarmactors.robot_clock import robot_clock
+from swarmactors.robot.behavior import Behavior, Context, Frame, params_problem
+from swarmactors.robot.knownmap import KnownMap
+from swarmactors.robot.plugins import RefusedBehavior, resolve_behavior
+from swarmactors.robot.robot_clock import robot_clock
 from transport.messages import RobotDescr, RobotOut, RunInfo
 
 log = logging.getLogger(__name__)

@@ -8,7 +8,7 @@ from typing import Any
 import msgspec
 import numpy as np
 
-from swarmactors.behavior import Frame, Sensed
+from swarmactors.robot.behavior import Frame, Sensed
 from transport.messages import FrameIn
 
 

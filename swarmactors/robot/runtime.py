@@ -16,7 +16,7 @@ from typing import Any, Protocol
 
 from swarmactors.robot.actor import Robot, run_calls
 from swarmactors.robot.inputs import FrameTable, SensedView, decode_body, with_rab
-from swarmactors.tasks import TaskSet
+from swarmactors.robot.tasks import TaskSet
 from transport.messages import Deliveries, FrameIn, Inputs, RobotDescr, RobotOut, RunInfo
 
 log = logging.getLogger(__name__)
@@ -45,7 +45,7 @@ DueCopies = tuple[Deliveries, list[int], list[int], list[int]]
 class DueTimer(Protocol):
     """Realtime: hands each item to ``RobotRuntime.deliver`` once its wall-clock due time has passed.
 
-    ``swarmactors.precise_timer.LoopTimer`` and ``PreciseTimer`` are two (built with ``deliver`` as ``on_due``).
+    ``swarmactors.robot.precise_timer.LoopTimer`` and ``PreciseTimer`` are two (built with ``deliver`` as ``on_due``).
     """
 
     def add(self, due: float, item: DueCopies) -> None: ...

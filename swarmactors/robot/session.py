@@ -21,8 +21,8 @@ import sys
 import time
 from collections.abc import Collection
 
-from swarmactors.precise_timer import LoopTimer, PreciseTimer, plain_loop, precise_loop
 from swarmactors.robot.actor import Robot
+from swarmactors.robot.precise_timer import LoopTimer, PreciseTimer, plain_loop, precise_loop
 from swarmactors.robot.runtime import RT_STAMPS, RobotRuntime
 from transport import Keys, Link, MalformedMessage, host_loss_s, seal, unseal
 from transport.auth import run_secret_from_env, verifies

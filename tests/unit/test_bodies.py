@@ -1,4 +1,4 @@
-"""The core's typed frame bodies (swarmactors.bodies): decoding into the union, causes, encoding, sending."""
+"""The core's typed frame bodies (swarmactors.robot.bodies): decoding into the union, causes, encoding, sending."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import msgspec
 import pytest
 
 from swarmactors import Frame
-from swarmactors.bodies import UNSET, Bodies, Body, Num, UnsetType, cause_of
+from swarmactors.robot.bodies import UNSET, Bodies, Body, Num, UnsetType, cause_of
 from transport.codec import pack
 
 

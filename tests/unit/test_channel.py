@@ -22,8 +22,8 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
-from swarmactors.inprocess import run_inprocess
-from swarmactors.scenario import ScenarioError, resolve
+from swarmactors.runs.inprocess import run_inprocess
+from swarmactors.runs.scenario import ScenarioError, resolve
 from transport.scenario import UNSET, Radio, SpecError
 from transport.space import Grid, Prism, Space, space_from_spec
 from world.channel import ChannelModel, mw, qpsk_prr
@@ -271,7 +271,7 @@ def beacons_on_a_channel() -> dict:
 @pytest.mark.slow
 def test_a_run_with_the_channel_has_the_same_trace_hash_in_process_and_over_zenoh(tmp_path):
     import swarmactors
-    from swarmactors.inprocess import run_inprocess
+    from swarmactors.runs.inprocess import run_inprocess
 
     inproc = run_inprocess(beacons_on_a_channel(), out=tmp_path / "k0")
     zenoh = swarmactors.run(beacons_on_a_channel(), out=tmp_path / "k2", processes=2)

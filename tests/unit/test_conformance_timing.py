@@ -3,7 +3,7 @@
 import asyncio
 import xml.etree.ElementTree as ET
 
-from swarmactors import conformance as cf
+from swarmactors.runs import conformance as cf
 
 
 class FakeResult:
@@ -27,7 +27,7 @@ def test_case_time_covers_both_runs(monkeypatch, tmp_path):
         await asyncio.sleep(0.15)  # each run takes 0.15 s of wall time around its tick loop
         return FakeResult()
 
-    import swarmactors.launcher as launcher
+    import swarmactors.runs.launcher as launcher
     monkeypatch.setattr(launcher, "run_world", fake_run_world)
     monkeypatch.setattr(cf, "check_contract", lambda *a: None)
     fam, case = cf.case_by_name("flooding", cf.select("flooding", "quick")[0][1].name)

@@ -7,7 +7,7 @@ import pytest
 from protocols.flooding.behavior import Flooding
 from protocols.flooding.messages import BODIES, KIND, Flood
 from swarmactors import Frame
-from swarmactors.bodies import UNSET
+from swarmactors.robot.bodies import UNSET
 from transport.codec import pack
 
 

@@ -13,7 +13,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from swarmactors.result import Result
+from swarmactors.oracle.result import Result
 from transport.scenario import Radio
 from world.radio import Medium
 from world.sensing import within

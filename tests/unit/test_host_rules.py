@@ -19,8 +19,8 @@ import types
 import numpy as np
 import pytest
 
-from swarmactors.behavior import Behavior, Context
 from swarmactors.robot import FrameTable, RobotRuntime
+from swarmactors.robot.behavior import Behavior, Context
 from transport import pack
 from transport.messages import Deliveries, Downlink, FrameIn, Inputs, RobotDescr, RobotIn, RunInfo, decode, encode
 

@@ -1,4 +1,4 @@
-"""The in-process driver (swarmactors/inprocess.py) below Zenoh: the same trace hashes as the pinned Zenoh runs.
+"""The in-process driver (swarmactors/runs/inprocess.py) below Zenoh: the same trace hashes as the pinned Zenoh runs.
 
 A Simulation and its robots' runtimes stepped in one loop with nothing in between must give, for a pinned
 lockstep scenario, the hash that tests/test_pins.py pins for the Zenoh path, with one runtime or two: the sessions
@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from swarmactors.inprocess import InProcessRun, run_inprocess
-from swarmactors.scenario import resolve
+from swarmactors.runs.inprocess import InProcessRun, run_inprocess
+from swarmactors.runs.scenario import resolve
 from test_pins import SCENARIO_PINS
 
 SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"

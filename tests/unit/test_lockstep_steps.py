@@ -20,10 +20,10 @@ import types
 
 import numpy as np
 
-from swarmactors.behavior import Behavior
 from swarmactors.robot import HostSession as RobotHost
 from swarmactors.robot import Robot, run_calls
-from swarmactors.scenario import resolve
+from swarmactors.robot.behavior import Behavior
+from swarmactors.runs.scenario import resolve
 from tests_support import FakeLink
 from transport import Keys, seal, unseal
 from transport.messages import (
@@ -203,7 +203,7 @@ class _Order(Behavior):
 
 
 def test_calls_run_hooks_in_order_and_await_only_async_results():
-    from swarmactors.behavior import Frame
+    from swarmactors.robot.behavior import Frame
 
     mod = types.ModuleType("order_mod")
     mod._Order = _Order

@@ -7,8 +7,8 @@ import time
 
 import numpy as np
 
-from swarmactors import precise_timer
-from swarmactors.precise_timer import LoopTimer, PreciseTimer, plain_loop, precise_loop
+from swarmactors.robot import precise_timer
+from swarmactors.robot.precise_timer import LoopTimer, PreciseTimer, plain_loop, precise_loop
 
 
 async def _collect(dues: list[float], on_loop: bool = False) -> list[tuple[float, float]]:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from swarmactors.scenario import resolve
+from swarmactors.runs.scenario import resolve
 from world import Simulation
 from world.air import Copies
 from world.radio import Outgoing

@@ -10,7 +10,7 @@ import numpy as np
 from protocols.relays import planner
 from protocols.relays.behavior import valid_plan
 from protocols.relays.suite import window_wall
-from swarmactors.knownmap import KnownMap
+from swarmactors.robot.knownmap import KnownMap
 
 BOX = [[-1.0, -3.0, 0.0], [7.0, 3.0, 2.5]]
 WIN = {"x": (3.0, 3.5), "y": (-1.0, 1.0), "z": (0.8, 1.8)}  # the window in the wall x in [3, 3.5]

@@ -6,9 +6,9 @@ import random
 
 import pytest
 
-from swarmactors import replay as rp
-from swarmactors.scene import Scene
-from swarmactors.trace import TraceWriter, iter_trace
+from swarmactors.oracle.trace import TraceWriter, iter_trace
+from swarmactors.tools import replay as rp
+from swarmactors.tools.scene import Scene
 
 SCENARIO = {"run": {"name": "stream"}, "radio": {"range": 2.0}, "world": {"bounds": [[0.0, 0.0], [9.0, 9.0]]}}
 

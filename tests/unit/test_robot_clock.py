@@ -1,4 +1,4 @@
-"""A robot's own clock (swarmactors/robot_clock.py) and what runs on it, without Zenoh.
+"""A robot's own clock (swarmactors/robot/robot_clock.py) and what runs on it, without Zenoh.
 
 Rules tested:
 
@@ -21,9 +21,9 @@ import types
 import numpy as np
 import pytest
 
-from swarmactors.behavior import Behavior, Context
 from swarmactors.robot import Robot, RobotRuntime, SensedView
-from swarmactors.robot_clock import RobotClock, robot_clock
+from swarmactors.robot.behavior import Behavior, Context
+from swarmactors.robot.robot_clock import RobotClock, robot_clock
 from transport.messages import Inputs, RobotDescr, RobotIn, RunInfo
 
 

@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from swarmactors.scenario import MAX_FILE_BYTES, MAX_ITEMS, ScenarioError, load
+from swarmactors.runs.scenario import MAX_FILE_BYTES, MAX_ITEMS, ScenarioError, load
 
 BASE = """[run]
 ticks = 3

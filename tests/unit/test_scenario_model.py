@@ -16,7 +16,7 @@ Rules tested:
 * a control ``add`` queued by the world gets the scenario's defaults (the radio's range, sensing = range);
 * the typed scenario and its data convert both ways unchanged, for every shipped scenario;
 * the JSON Schema accepts every shipped scenario and refuses a bad key or value where the model does; the key
-  tables of docs/scenarios.md are the model's (``python -m swarmactors.schema --markdown --check``).
+  tables of docs/scenarios.md are the model's (``python -m swarmactors.runs.schema --markdown --check``).
 """
 
 from __future__ import annotations
@@ -30,8 +30,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from swarmactors import schema as schema_doc
-from swarmactors.scenario import ScenarioError, load, resolve, resolve_scenario
+from swarmactors.runs import schema as schema_doc
+from swarmactors.runs.scenario import ScenarioError, load, resolve, resolve_scenario
 from transport.scenario import (
     MAX_COORD,
     MAX_OBSTACLE_RAYS,
@@ -286,7 +286,7 @@ def test_the_json_schema_checks_files_as_the_model_does():
 def test_the_docs_key_tables_are_generated_from_the_model():
     doc = Path(__file__).resolve().parents[2] / "docs" / "scenarios.md"  # the checkout's (CI installs a wheel)
     assert schema_doc.main(["--markdown", "--check", "--doc", str(doc)]) == 0, \
-        "run: python -m swarmactors.schema --markdown"
+        "run: python -m swarmactors.runs.schema --markdown"
     text = doc.read_text()
     for name in schema_doc.TABLES:
         assert schema_doc.table(name) in text

@@ -1,4 +1,4 @@
-"""Scenario validation and resolution of ``swarmactors/scenario.py``, without Zenoh.
+"""Scenario validation and resolution of ``swarmactors/runs/scenario.py``, without Zenoh.
 
 Rules tested (docs/scenarios.md; the expected keys, types, ranges and defaults are the documentation's
 tables written out here, not read from the module's schema):
@@ -34,7 +34,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from swarmactors.scenario import ScenarioError, apply_override, load, read_raw, resolve_scenario, set_value, to_raw
+from swarmactors.runs.scenario import ScenarioError, apply_override, load, read_raw, resolve_scenario, set_value, to_raw
 
 SRC = "tests/unit/scenario.toml"
 

@@ -9,7 +9,7 @@ import pytest
 
 from protocols.secs import rules
 from protocols.secs.behavior import SECS, parse_m, parse_t
-from swarmactors.behavior import Frame
+from swarmactors.robot.behavior import Frame
 
 
 def _own_bearing(p_from, p_to, offset):

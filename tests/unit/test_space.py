@@ -8,9 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from shapely.geometry import LineString, Polygon, box
 
-from swarmactors import maps
-from swarmactors.knownmap import KnownMap
-from swarmactors.occlusion_oracle import Occluders
+from swarmactors.oracle.occlusion_oracle import Occluders
+from swarmactors.robot.knownmap import KnownMap
+from swarmactors.runs import maps
 from transport.scenario import robot_spec
 from transport.space import Space, convex, space_from_spec
 from world.registry import Robots
@@ -279,7 +279,7 @@ def test_the_one_who_is_in_range_leaves_out_occluded_links_and_placement_respect
     """
     import networkx as nx
 
-    from swarmactors.scenario import mutual_links, resolve_scenario
+    from swarmactors.runs.scenario import mutual_links, resolve_scenario
 
     space = space_from_spec({"dims": 2, "obstacles": [WALL]})
     pos = np.array([[3.5, 5.0], [5.5, 5.0], [3.5, 6.0]])
@@ -303,7 +303,7 @@ def test_in_2d_a_flying_body_over_an_obstacle_is_no_collision_and_ctx_tells_the_
 
     A behaviour reads its robot's kind from the context (found missing by the Swarm Relays work).
     """
-    from swarmactors.behavior import Context
+    from swarmactors.robot.behavior import Context
 
     r = robots([{"pos": [4.5, 5.0], "body_radius": 0.3}, {"pos": [4.5, 5.0], "body_radius": 0.3, "kind": "flying"}],
                2)

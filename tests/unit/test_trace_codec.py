@@ -1,4 +1,4 @@
-"""Trace encoding and hashing of ``swarmactors/trace.py``, without Zenoh.
+"""Trace encoding and hashing of ``swarmactors/oracle/trace.py``, without Zenoh.
 
 Rules tested (docs/trace.md), against a canonical form and a digest computed here with msgpack and hashlib:
 
@@ -27,7 +27,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from swarmactors.trace import (
+from swarmactors.oracle.trace import (
     VERSION,
     TraceError,
     TraceWriter,
@@ -272,7 +272,7 @@ SCALARS = st.one_of(st.integers(min_value=-2**63, max_value=2**64 - 1), st.float
 @given(st.lists(st.lists(SCALARS, max_size=6), max_size=20))
 def test_row_lists_pack_to_msgpacks_bytes(rows):
     """The world's row lists (ints, floats, strings, None) are packed by msgspec: the bytes must be msgpack's."""
-    from swarmactors.trace import pack_record
+    from swarmactors.oracle.trace import pack_record
 
     rec = {"t": 1, "pos": rows, "sent": rows, "drop": rows}
     assert pack_record(rec) == packb(rec)

@@ -1,4 +1,4 @@
-"""Trace modes (``run.trace`` = full, summary, off; swarmactors/trace.py's writer): the same hash in every mode.
+"""Trace modes (``run.trace`` = full, summary, off; swarmactors/oracle/trace.py's writer): the same hash in every mode.
 
 Records with delivery rows as ``IntRows`` (as the world builds them) and as plain lists go through the writer in
 each mode: ``trace_hash`` is the same everywhere and equals the digest of the records packed by msgpack itself;
@@ -14,7 +14,7 @@ import msgpack
 import numpy as np
 import pytest
 
-from swarmactors.trace import TraceWriter, read_trace
+from swarmactors.oracle.trace import TraceWriter, read_trace
 from transport.rows import IntRows
 
 
@@ -74,7 +74,7 @@ def test_an_unknown_mode_is_refused():
 
 @pytest.mark.parametrize("mode", ["full", "summary"])
 def test_a_trace_of_either_mode_verifies_and_an_edited_one_does_not(tmp_path, mode):
-    from swarmactors.trace import TraceError, verify
+    from swarmactors.oracle.trace import TraceError, verify
 
     path = tmp_path / "trace.msgpack"
     w = TraceWriter(path, {"run_id": "r"}, mode=mode)

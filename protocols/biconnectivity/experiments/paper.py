@@ -59,8 +59,8 @@ from protocols.biconnectivity.geometry import (  # noqa: E402
     removal_distance,
 )
 from protocols.biconnectivity.oracle import expected_counts, paper_biconnected, path_ends  # noqa: E402
-from swarmactors.launcher import new_run_id, run_world  # noqa: E402
-from swarmactors.scenario import draw_until_connected, resolve_scenario  # noqa: E402
+from swarmactors.runs.launcher import new_run_id, run_world  # noqa: E402
+from swarmactors.runs.scenario import draw_until_connected, resolve_scenario  # noqa: E402
 from transport import Endpoints  # noqa: E402
 
 S = 0.9  # neighbour spacing; radio range 1
@@ -612,7 +612,7 @@ def coverage_trial(params: dict, *, seed: int, trial: int) -> dict:
 
 def coverage_figures(csv_path: Path, out_dir: Path) -> list[Path]:
     """The post step: per cr, the summary of ``summarise_emulated`` beside the paper's number (``coverage.json``)."""
-    from swarmactors.sweep import returned_values
+    from swarmactors.tools.sweep import returned_values
 
     runs = returned_values(csv_path)
     out = {f"cr{int(cr)}_{m}": summarise_emulated([r for r in runs if r["cr"] == cr and r["method"] == m])

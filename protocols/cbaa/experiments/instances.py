@@ -39,8 +39,8 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[2]  # the checkout: docs/img
 
 from protocols.cbaa.oracle import optimum, sequential_greedy  # noqa: E402
-from swarmactors.launcher import new_run_id, run_world  # noqa: E402
-from swarmactors.scenario import resolve_scenario  # noqa: E402
+from swarmactors.runs.launcher import new_run_id, run_world  # noqa: E402
+from swarmactors.runs.scenario import resolve_scenario  # noqa: E402
 from transport import Endpoints  # noqa: E402
 
 DENSITY = 2.5  # robots per unit area of the "medium" layout (the stigmergy experiments' density)
@@ -138,7 +138,7 @@ def cbaa_trial(params: dict, *, seed: int, trial: int) -> dict:
 
 def sweep_summary(csv_path: Path, out_dir: Path) -> list[Path]:
     """The post step of the sweep: ``summarise`` of the CSV's instances, without the per-run rows (summary.json)."""
-    from swarmactors.sweep import returned_values
+    from swarmactors.tools.sweep import returned_values
 
     whole = summarise(returned_values(csv_path), [])
     path = Path(out_dir) / "summary.json"

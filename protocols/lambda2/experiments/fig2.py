@@ -10,7 +10,7 @@ the same (rule, K, method); the figures go to docs/img/lambda2-fig2.png and docs
 
 Every point is a real run (lockstep, c = 1 tick, range 1, one L2 frame per robot per tick, per-receiver loss
 p, drop semantics ``drop``, the authors' ``makeAnoisy``) on connected random geometric graphs
-(``swarmactors.conformance.random_geometric``, about 4 neighbours at K = 10, 6 at K = 50 and 100). Measured per
+(``swarmactors.runs.conformance.random_geometric``, about 4 neighbours at K = 10, 6 at K = 50 and 100). Measured per
 run against numpy's λ2 of the true Laplacian: every robot's final error, their worst, 90th percentile and
 median (robots at a zero of the Fiedler vector named and left out, the rule of ``oracle.accurate``), the
 iteration from which every judged robot stays within 1 % (None: not within the horizon), the same for the
@@ -57,8 +57,8 @@ def params_for(rule: str, k: int, power: int) -> dict:
 def one(job: dict) -> dict:
     from protocols.lambda2 import oracle
     from protocols.lambda2.suite import lambda2_scenario
-    from swarmactors.conformance import random_geometric
-    from swarmactors.launcher import run
+    from swarmactors.runs.conformance import random_geometric
+    from swarmactors.runs.launcher import run
 
     k, seed, method, p, drop = job["K"], job["seed"], job["method"], job["p"], job["drop"]
     ticks, rule = job["ticks"], job.get("rule", "ours")
@@ -138,7 +138,7 @@ def authors_matrix(k: int, seed: int, iterations: int = 8001) -> dict:
     median-of-robots error the authors plot.
     """
     from protocols.lambda2 import oracle
-    from swarmactors.conformance import random_geometric
+    from swarmactors.runs.conformance import random_geometric
 
     pos = np.array(random_geometric(k, seed, degree=4.0 if k <= 10 else 6.0))
     d = np.linalg.norm(pos[:, None] - pos[None], axis=2)
@@ -345,7 +345,7 @@ def sweep_trial(params: dict, *, seed: int, trial: int) -> dict:
 
 def sweep_figures(csv_path: Path, out_dir: Path) -> list[Path]:
     """The sweep's post step: the summary (``fig2.json``) and both plots, from trials.csv."""
-    from swarmactors.sweep import returned_values
+    from swarmactors.tools.sweep import returned_values
 
     rows = returned_values(csv_path)
     summary = summarise(rows)

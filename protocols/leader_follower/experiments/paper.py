@@ -16,7 +16,7 @@ import tomllib
 from pathlib import Path
 
 from protocols.leader_follower import oracle
-from swarmactors.launcher import run
+from swarmactors.runs.launcher import run
 
 ROOT = Path(__file__).resolve().parents[3]  # the checkout: scenarios/, docs/img, out/
 IMG = ROOT / "docs" / "img"

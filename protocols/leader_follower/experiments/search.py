@@ -13,7 +13,7 @@ import sys
 import tempfile
 
 from protocols.leader_follower import oracle, suite
-from swarmactors.launcher import run
+from swarmactors.runs.launcher import run
 
 
 def trial(seed: int, dt: float, duration: float, spread: float, edge: float | None) -> tuple:

@@ -31,7 +31,7 @@ import tempfile
 import time
 
 from protocols.leader_follower import oracle, suite
-from swarmactors.launcher import run
+from swarmactors.runs.launcher import run
 
 
 def one(sc: dict) -> dict:
@@ -58,7 +58,7 @@ def sweep_tally(csv_path, out_dir) -> list:
     """The post step: runs with a collision per method, and the proposed method's runs that broke an assumption."""
     from pathlib import Path
 
-    from swarmactors.sweep import returned_values
+    from swarmactors.tools.sweep import returned_values
 
     rows = returned_values(csv_path)
     tally = {}
@@ -96,7 +96,7 @@ def margin_tally(csv_path, out_dir) -> list:
 
     import numpy as np
 
-    from swarmactors.sweep import returned_values
+    from swarmactors.tools.sweep import returned_values
 
     rows = returned_values(csv_path)
     out = {}

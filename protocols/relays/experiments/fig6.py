@@ -73,7 +73,7 @@ def condition(targets: int, obstacle: bool, wp: bool, seed: int, ticks: int) -> 
 
 
 def _run(job: dict) -> dict:
-    from swarmactors.launcher import run
+    from swarmactors.runs.launcher import run
 
     t0 = time.time()
     with tempfile.TemporaryDirectory() as tmp:
@@ -240,7 +240,7 @@ def sweep_failure_trial(params: dict, *, seed: int, trial: int) -> dict:
 
 def sweep_figures(csv_path: Path, out_dir: Path) -> list[Path]:
     """The sweeps' post step: Fig. 6's panels (those the sweep measured) and the printed summary."""
-    from swarmactors.sweep import returned_values
+    from swarmactors.tools.sweep import returned_values
 
     results = returned_values(csv_path)
     summarise(results)

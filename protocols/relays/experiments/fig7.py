@@ -3,7 +3,7 @@
 The paper's arenas are three Moving AI maps (dragon age: arena 49 x 49, den203d 93 x 77, arena2 281 x 209
 cells of 1 m, as the reference code's loop functions build them: one 1 m box a blocked cell) with 25, 60
 and 100 robots, d_s / d_c / d_b = 9.5 / 9.7 / 10 m and v_max = 0.1 m/s. We do not ship those maps; each arena
-here is the world's generated perfect maze of about the same size (``swarmactors.maps.maze``, corridors 2
+here is the world's generated perfect maze of about the same size (``swarmactors.runs.maps.maze``, corridors 2
 cells and walls 1 cell of side ``cell`` metres):
 
     arena 1: 3 x 3 maze cells (seed 5), cell 4.9 m    -> 49 x 49 m   (corridors 9.8 m), path 51 m, 25 robots
@@ -118,7 +118,7 @@ def scenario(arena: int, chains: int, fraction: float, trial: int, ticks: int, h
 
 
 def run_one(arena: int, chains: int, fraction: float, trial: int, ticks: int, hetero: bool = False) -> dict:
-    from swarmactors.launcher import run
+    from swarmactors.runs.launcher import run
 
     sc = scenario(arena, chains, fraction, trial, ticks, hetero)
     t0 = time.time()
@@ -157,7 +157,7 @@ def sweep_trial(params: dict, *, seed: int, trial: int) -> dict:
 
 def sweep_figures(csv_path: Path, out_dir: Path) -> list[Path]:
     """The sweep's post step: the summary table (printed) and Fig. 7's two panels as relays_fig7.png."""
-    from swarmactors.sweep import returned_values
+    from swarmactors.tools.sweep import returned_values
 
     rows = returned_values(csv_path)
     summarise(rows)

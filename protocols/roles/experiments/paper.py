@@ -62,8 +62,8 @@ PAPER = {
 
 # ================================================================== one run
 def _run(raw: dict, keep: Path | None = None):
-    from swarmactors.launcher import new_run_id, run_world
-    from swarmactors.scenario import resolve_scenario
+    from swarmactors.runs.launcher import new_run_id, run_world
+    from swarmactors.runs.scenario import resolve_scenario
     from transport import Endpoints
 
     sc = resolve_scenario(raw, "<experiment>")
@@ -207,7 +207,7 @@ def main_trial(params: dict, *, seed: int, trial: int) -> dict:
 
 def prelim_figures(csv_path: Path, out_dir: Path) -> list[Path]:
     """The post step of the Figs. 3-5 sweep: the plots and ``preliminary.json`` (aggregates by N)."""
-    from swarmactors.sweep import returned_values
+    from swarmactors.tools.sweep import returned_values
 
     out = Path(out_dir)
     agg = plot_prelim(returned_values(csv_path), out, None)
@@ -217,7 +217,7 @@ def prelim_figures(csv_path: Path, out_dir: Path) -> list[Path]:
 
 def main_figures(csv_path: Path, out_dir: Path) -> list[Path]:
     """The post step of the Figs. 6-11 sweep: the plots and ``main.json`` (aggregates by N)."""
-    from swarmactors.sweep import returned_values
+    from swarmactors.tools.sweep import returned_values
 
     rows = returned_values(csv_path)
     for r in rows:  # JSON keys are strings; the plots index robots by int

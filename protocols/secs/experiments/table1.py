@@ -156,7 +156,7 @@ def sweep_trial(params: dict, *, seed: int, trial: int) -> dict:
 
 def sweep_figures(csv_path: Path, out_dir: Path) -> list[Path]:
     """The post step: Table I (and Fig. 5's full deployment time) beside the paper's, as ``table1.json``."""
-    from swarmactors.sweep import returned_values
+    from swarmactors.tools.sweep import returned_values
 
     path = Path(out_dir) / "table1.json"
     path.write_text(json.dumps({"tol_m": TOL, "table": summarise(returned_values(csv_path))}, indent=1))

@@ -49,8 +49,8 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[2]  # the checkout: docs/img
 
 from protocols.stigmergy.oracle import oracle_tables  # noqa: E402
-from swarmactors.launcher import new_run_id, run_world  # noqa: E402
-from swarmactors.scenario import resolve_scenario  # noqa: E402
+from swarmactors.runs.launcher import new_run_id, run_world  # noqa: E402
+from swarmactors.runs.scenario import resolve_scenario  # noqa: E402
 from transport import Endpoints  # noqa: E402
 
 DENSITY = 2.5
@@ -188,7 +188,7 @@ def stigmergy_trial(params: dict, *, seed: int, trial: int) -> dict:
 
 def sweep_summary(csv_path: Path, out_dir: Path) -> list[Path]:
     """The post step of the sweep: the summary of ``summarise`` for the CSV's runs, as ``summary.json``."""
-    from swarmactors.sweep import returned_values
+    from swarmactors.tools.sweep import returned_values
 
     vs = [r for r in returned_values(csv_path) if "anti_entropy" in r]
     data = {"stigmergy": summarise(vs, [])["stigmergy"]["summary"]}

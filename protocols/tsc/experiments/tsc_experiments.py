@@ -57,7 +57,7 @@ from protocols.tsc.schedule import (  # noqa: E402
     used_slots,
 )
 from protocols.tsc.schedule_check import check_schedule, euclidean_excess  # noqa: E402
-from swarmactors.sweep import returned_values  # noqa: E402
+from swarmactors.tools.sweep import returned_values  # noqa: E402
 
 # One base class and one-factor variations of it (docs/protocols/tsc.md, "Instances"): sized so that HiGHS on
 # one core solves most instances within the limit at large D and reaches it on part of the small-D ones.
