@@ -126,18 +126,18 @@ class _NoRelay:
 class BiconNoRelay(Biconnectivity):
     """Never relays stamped messages (breaks Algorithm 1: lists stay at the neighbours)."""
 
-    def _on_stamped(self, ctx, frame):
-        super()._on_stamped(_NoRelay(ctx), frame)
+    def _on_stamped(self, ctx, frame, body):
+        super()._on_stamped(_NoRelay(ctx), frame, body)
 
 
 class BiconShortDCR(Biconnectivity):
     """Adds S2 to DCR when |S2| >= 1 (Algorithm 2 says > 1): tree neighbours look doubly connected."""
 
-    def _on_stamped(self, ctx, frame):
-        super()._on_stamped(ctx, frame)
-        got = self._stamps(frame)
-        if frame.kind == biconnectivity.DCR and not isinstance(got, str):
-            _, s = got
+    def _on_stamped(self, ctx, frame, body):
+        malformed = sum(self.malformed.values())
+        super()._on_stamped(ctx, frame, body)
+        if frame.kind == biconnectivity.DCR and sum(self.malformed.values()) == malformed:
+            s = body.stamps
             if ctx.id in s and len(s[s.index(ctx.id) + 1:]) == 1:
                 self.dcr.update(s[s.index(ctx.id) + 1:])
 

@@ -8,14 +8,42 @@ from collections import Counter, defaultdict
 import numpy as np
 
 from protocols.biconnectivity.geometry import _region_problem, join_position, prox, removal_distance
+from protocols.biconnectivity.messages import (
+    BODIES,
+    BUDGET,
+    CHECK_REQUEST,
+    CR,
+    DC_FALSE,
+    DC_TRUE,
+    DCR,
+    HELLO,
+    KINDS,
+    LEAVE,
+    MOVE,
+    POS_REPLY,
+    POS_REQUEST,
+    VERDICT,
+    Budget,
+    Cr,
+    DcFalse,
+    Dcr,
+    DcTrue,
+    Hello,
+    Leave,
+    Move,
+    PosReply,
+    PosRequest,
+    Request,
+    Row,
+    Stamped,
+    Verdict,
+)
 from swarmactors import Behavior, Context, Frame
 from swarmactors.robot.behavior import is_int, is_num
 
-CR, DCR = "CR", "DCR"
-CHECK_REQUEST, DC_TRUE, DC_FALSE = "CHECK-REQUEST", "DC-TRUE", "DC-FALSE"
-BUDGET, VERDICT = "BUDGET", "VERDICT"
-HELLO, LEAVE, POS_REQUEST, POS_REPLY, MOVE = "HELLO", "LEAVE", "POS-REQUEST", "POS-REPLY", "MOVE"
-KINDS = (CR, DCR, CHECK_REQUEST, DC_TRUE, DC_FALSE, BUDGET, VERDICT, HELLO, LEAVE, POS_REQUEST, POS_REPLY, MOVE)
+# the frame kinds, for the tests and the oracle that name them from here
+__all__ = ["BUDGET", "CHECK_REQUEST", "CR", "DCR", "DC_FALSE", "DC_TRUE", "HELLO", "KINDS", "LEAVE", "MOVE",
+           "POS_REPLY", "POS_REQUEST", "VERDICT", "Biconnectivity"]
 
 
 # ================================================================ the behaviour
@@ -190,9 +218,9 @@ class Biconnectivity(Behavior):
             ck["period"] = p  # a newer fill supersedes: the check evaluates on it
         ctx.set_status(period=p)
         for _ in range(self.repeat):  # R13: repeat > 1 sends independent copies (the relay treats each alike)
-            for kind in (CR, DCR):
-                ctx.broadcast(kind, [p, [ctx.id]])
-                st["sent"][kind] += 1
+            for body in (Cr(p, [ctx.id]), Dcr(p, [ctx.id])):
+                BODIES.broadcast(ctx, body)
+                st["sent"][body.KIND] += 1
 
     def _see_period(self, ctx: Context, p: int, kind: str) -> bool:
         """Join a newer period; False (and counted stale) for an older one."""
@@ -203,24 +231,15 @@ class Biconnectivity(Behavior):
             self._join_period(ctx, p)
         return True
 
-    def _stamps(self, frame: Frame) -> tuple[int, list[int]] | str:
-        body = frame.body
-        if not (isinstance(body, list) and len(body) == 2):
-            return "body"
-        p, s = body
-        if not (isinstance(p, int) and not isinstance(p, bool) and p >= 0):
-            return "period"
-        if not isinstance(s, list) or not s:
-            return "stamps"
-        if not all(isinstance(x, int) and not isinstance(x, bool) for x in s):
-            return "non-integer stamp"
-        if len(s) > self.N:
-            return "more than N stamps"
-        if len(set(s)) != len(s):
-            return "repeated stamp"
-        if s[-1] != frame.src:
-            return "last stamp is not the sender"
-        return p, s
+    def _stamps_fit(self, body: Stamped, src: int) -> bool:
+        """R9: at most N stamps, the last one the sender's; False (counted by cause) otherwise."""
+        if len(body.stamps) > self.N:
+            self.malformed["more_than_n_stamps"] += 1
+            return False
+        if body.stamps[-1] != src:
+            self.malformed["last_stamp_not_sender"] += 1
+            return False
+        return True
 
     def _structure_neighbour(self, ctx: Context, src: int) -> bool:
         """R14: ``src``'s region centre, as this robot's table knows it, within the structure-neighbour distance."""
@@ -228,21 +247,19 @@ class Biconnectivity(Behavior):
         return row is not None and float(np.linalg.norm(np.array(row[:2]) - np.array(ctx.position[:2], dtype=float))
                                         ) <= self.reach * (1 + 1e-9)
 
-    def _on_stamped(self, ctx: Context, frame: Frame) -> None:
-        got = self._stamps(frame)
-        if isinstance(got, str):
-            self.malformed[got] += 1
+    def _on_stamped(self, ctx: Context, frame: Frame, body: Stamped) -> None:
+        if not self._stamps_fit(body, frame.src):
             return
         if self.graph == "structure" and not self._structure_neighbour(ctx, frame.src):
             self.other["not-structure-neighbour"] += 1
             return
-        p, s = got
+        p, s = body.period, body.stamps
         if not self._see_period(ctx, p, frame.kind):
             return
         st = self.periods[p]
         st["received"][frame.kind] += 1
         me = ctx.id
-        if frame.kind == CR:
+        if isinstance(body, Cr):
             self.cr.update(x for x in s if x != me)  # R2
         elif me in s:  # R3 (Algorithm 2, lines 6-8)
             s2 = s[s.index(me) + 1:]
@@ -253,7 +270,7 @@ class Biconnectivity(Behavior):
         if sum(st["relayed"].values()) >= self.budget:
             self._poison(ctx, p)
             return
-        ctx.broadcast(frame.kind, [p, s + [me]])
+        BODIES.broadcast(ctx, type(body)(p, s + [me]))
         st["relayed"][frame.kind] += 1
         st["sent"][frame.kind] += 1
 
@@ -262,7 +279,7 @@ class Biconnectivity(Behavior):
         self._stats(p)["over_budget"] = True
         if p not in self.budget_flooded:
             self.budget_flooded.add(p)
-            ctx.broadcast(BUDGET, [p])
+            BODIES.broadcast(ctx, Budget(p))
         if self.check is None or self.check["period"] != p:
             if self.biconnected is None:
                 self.reason = "budget"
@@ -289,30 +306,28 @@ class Biconnectivity(Behavior):
         p = self.period
         self._start_check(ctx, True, p, ctx.now, ctx.id)
         ctx.set_status(role="initiator")
-        ctx.broadcast(CHECK_REQUEST, [p, ctx.now, ctx.id])
+        BODIES.broadcast(ctx, Request(p, ctx.now, ctx.id))
 
-    def _on_request(self, ctx: Context, frame: Frame) -> None:
-        body = frame.body
-        if not (isinstance(body, list) and len(body) in (3, 4) and isinstance(body[0], int)
-                and not isinstance(body[0], bool) and body[0] >= 0 and isinstance(body[1], (int, float))
-                and (len(body) == 3 or is_int(body[3]))):
-            self.malformed["request"] += 1
-            return
-        p, t_req, by = body[:3]
+    def _answer(self, ctx: Context, p: int) -> None:
+        """Algorithm 3, line 3: broadcast this robot's DC answer for period ``p``."""
+        BODIES.broadcast(ctx, DcTrue(p) if self.evaluated[p] else DcFalse(p))
+
+    def _on_request(self, ctx: Context, body: Request) -> None:
+        p, t_req, by = body.period, body.requested, body.by
         if p > self.period:
             self._join_period(ctx, p)
         p = self.period  # an older request runs on the current fill
         ck = self.check
-        if len(body) == 4:  # R15: a further period of a running check; robots not running it only join (R4)
+        if body.index is not None:  # R15: a further period of a running check; robots not running it only join (R4)
             if ck is None or self.session != (by, float(t_req)):
                 return
             if p in self.evaluated:
-                ctx.broadcast(DC_TRUE if self.evaluated[p] else DC_FALSE, [p])
+                self._answer(ctx, p)
             elif ck["done"]:
                 self.answer_only = p  # decided already: answer in p, keep the verdict
             return  # undecided: its check continues on p when its current period concludes
         if p in self.evaluated:  # already answered this period: repeat the answer for the new asker
-            ctx.broadcast(DC_TRUE if self.evaluated[p] else DC_FALSE, [p])
+            self._answer(ctx, p)
             return
         if ck is not None and not ck["done"] and ck["period"] == p:
             return  # already running it
@@ -330,7 +345,7 @@ class Biconnectivity(Behavior):
         own = len(self.dcr) == len(self.cr)  # Algorithm 3, line 3
         ck["own"] = own
         self.evaluated[p] = own
-        ctx.broadcast(DC_TRUE if own else DC_FALSE, [p])
+        self._answer(ctx, p)
         if not own:
             self._decide(ctx, False, "not doubly connected to all")  # line 7
         elif not self.cr:
@@ -373,7 +388,7 @@ class Biconnectivity(Behavior):
         else:
             self._join_period(ctx, max(ctx.tick, self.period + 1))  # moves the check to the new period
         by, t_req = self.session
-        ctx.broadcast(CHECK_REQUEST, [self.period, t_req, by, len(rounds) + 1])
+        BODIES.broadcast(ctx, Request(self.period, t_req, by, len(rounds) + 1))
         return False, None, reason
 
     def _decide(self, ctx: Context, value: bool | None, reason: str) -> None:
@@ -387,42 +402,28 @@ class Biconnectivity(Behavior):
         if ck["initiator"] and self.flood_verdict and value is not None:
             key = (ck["period"], ctx.id)
             self.verdicts_seen.add(key)
-            ctx.broadcast(VERDICT, [ck["period"], ctx.id, value, reason])
+            BODIES.broadcast(ctx, Verdict(ck["period"], ctx.id, value, reason))
         lead = self.leading
         if lead is not None and lead.get("checking") and ck["initiator"]:
             self._leader_verdict(ctx, value)
 
-    def _on_dc(self, ctx: Context, frame: Frame) -> None:
-        body = frame.body
-        if not (isinstance(body, list) and len(body) == 1 and isinstance(body[0], int)
-                and not isinstance(body[0], bool)):
-            self.malformed["dc"] += 1
-            return
-        self.dc_heard[body[0]]["true" if frame.kind == DC_TRUE else "false"].add(frame.src)
+    def _on_dc(self, ctx: Context, src: int, body: DcTrue | DcFalse) -> None:
+        self.dc_heard[body.period]["true" if isinstance(body, DcTrue) else "false"].add(src)
         self._try_decide(ctx)
 
-    def _on_verdict(self, ctx: Context, frame: Frame) -> None:
-        body = frame.body
-        if not (isinstance(body, list) and len(body) == 4 and isinstance(body[0], int) and isinstance(body[1], int)):
-            self.malformed["verdict"] += 1
-            return
-        p, who, value, _ = body
-        key = (p, who)
+    def _on_verdict(self, ctx: Context, body: Verdict) -> None:
+        p = body.period
+        key = (p, body.by)
         if key in self.verdicts_seen:
             return
         self.verdicts_seen.add(key)
-        ctx.broadcast(VERDICT, body)
+        BODIES.broadcast(ctx, body)
         running = self.check is not None and not self.check["done"] and self.check["period"] == p
-        if self.biconnected is None and not running and value in (True, False):
-            self._set_verdict(ctx, bool(value), "flooded")
+        if self.biconnected is None and not running:
+            self._set_verdict(ctx, body.value, "flooded")
 
-    def _on_budget(self, ctx: Context, frame: Frame) -> None:
-        body = frame.body
-        if not (isinstance(body, list) and len(body) == 1 and isinstance(body[0], int) and not isinstance(body[0], bool)
-                and body[0] >= 0):
-            self.malformed["budget"] += 1
-            return
-        p = body[0]
+    def _on_budget(self, ctx: Context, body: Budget) -> None:
+        p = body.period
         if not self._see_period(ctx, p, BUDGET):
             return
         if p not in self.poisoned:
@@ -440,37 +441,40 @@ class Biconnectivity(Behavior):
     def on_frame(self, ctx: Context, frame: Frame) -> None:
         if self.left:
             return
-        kind = frame.kind
-        if kind in (CR, DCR):
-            self._on_stamped(ctx, frame)
-            return
-        self.other[kind] += 1
-        if kind == CHECK_REQUEST:
-            self._on_request(ctx, frame)
-        elif kind in (DC_TRUE, DC_FALSE):
-            self._on_dc(ctx, frame)
-        elif kind == BUDGET:
-            self._on_budget(ctx, frame)
-        elif kind == VERDICT:
-            self._on_verdict(ctx, frame)
-        elif kind == HELLO:
-            self._on_hello(ctx, frame)
-        elif kind == POS_REQUEST:
-            if self.settled:
-                ctx.send(frame.src, POS_REPLY, self._table_rows(ctx))
-        elif kind == POS_REPLY:
-            self._merge(ctx, frame.body)
-        elif kind == LEAVE:
-            if self.maintain and self.settled:
-                self._lost(ctx, frame.src, "leave")
-        elif kind == MOVE:
-            self._on_move(ctx, frame)
+        if frame.kind not in (CR, DCR):
+            self.other[frame.kind] += 1
+        match BODIES.decode(frame, self.malformed):  # None for a body that does not fit, counted by cause
+            case Stamped() as body:
+                self._on_stamped(ctx, frame, body)
+            case Request() as body:
+                self._on_request(ctx, body)
+            case DcTrue() | DcFalse() as body:
+                self._on_dc(ctx, frame.src, body)
+            case Budget() as body:
+                self._on_budget(ctx, body)
+            case Verdict() as body:
+                self._on_verdict(ctx, body)
+            case Hello(rows=rows):
+                if frame.src not in self.removed:
+                    self._merge(ctx, rows)
+                    if self.settled:
+                        self.heard[frame.src] = ctx.tick
+            case PosRequest():
+                if self.settled:
+                    BODIES.send(ctx, frame.src, PosReply(self._table_rows(ctx)))
+            case PosReply(rows=rows):
+                self._merge(ctx, rows)
+            case Leave():
+                if self.maintain and self.settled:
+                    self._lost(ctx, frame.src, "leave")
+            case Move() as body:
+                self._accept_move(ctx, body)
 
     def on_tick(self, ctx: Context, sensed) -> None:
         if self.left:
             return
         if self.leave.get(ctx.id) == ctx.tick:
-            ctx.broadcast(LEAVE, [ctx.id])
+            BODIES.broadcast(ctx, Leave(ctx.id))
             self.left = True
             ctx.move([0.0, 0.0])
             ctx.set_status(role="left")
@@ -485,7 +489,7 @@ class Biconnectivity(Behavior):
             p, self.answer_only = self.answer_only, None  # R15: answer in a period after this robot's verdict
             if p == self.period and p not in self.evaluated:
                 self.evaluated[p] = len(self.dcr) == len(self.cr)
-                ctx.broadcast(DC_TRUE if self.evaluated[p] else DC_FALSE, [p])
+                self._answer(ctx, p)
         if self.next_check is not None and ctx.tick >= self.next_check:
             self.next_check = None if self.every is None else self.next_check + self.every
             self._initiate(ctx)
@@ -505,36 +509,22 @@ class Biconnectivity(Behavior):
     def _neighbours(self, ctx: Context) -> list[int]:
         return sorted(r for r, t in self.heard.items() if ctx.tick - t <= self.silence and r not in self.removed)
 
-    def _table_rows(self, ctx: Context) -> list[list]:
+    def _table_rows(self, ctx: Context) -> list[Row]:
         x, y = (float(v) for v in ctx.position[:2])
         self.table[ctx.id] = [x, y, ctx.tick, self._neighbours(ctx)]
-        return [[rid, *row] for rid, row in sorted(self.table.items()) if rid not in self.removed]
+        return [Row(rid, *row) for rid, row in sorted(self.table.items()) if rid not in self.removed]
 
     def _send_hello(self, ctx: Context) -> None:
-        ctx.broadcast(HELLO, self._table_rows(ctx))
+        BODIES.broadcast(ctx, Hello(self._table_rows(ctx)))
 
-    def _merge(self, ctx: Context, rows) -> bool:
-        if not isinstance(rows, list):
-            self.malformed["table"] += 1
-            return False
+    def _merge(self, ctx: Context, rows: list[Row]) -> None:
+        """R10: take every row newer than the one this robot knows."""
         for row in rows:
-            if not (isinstance(row, list) and len(row) == 5 and isinstance(row[0], int)
-                    and all(isinstance(v, (int, float)) for v in row[1:4]) and isinstance(row[4], list)):
-                self.malformed["table"] += 1
-                return False
-            rid = row[0]
-            if rid == ctx.id or rid in self.removed:
+            if row.rid == ctx.id or row.rid in self.removed:
                 continue
-            old = self.table.get(rid)
-            if old is None or row[3] > old[2]:
-                self.table[rid] = [float(row[1]), float(row[2]), row[3], list(row[4])]
-        return True
-
-    def _on_hello(self, ctx: Context, frame: Frame) -> None:
-        if frame.src in self.removed:
-            return
-        if self._merge(ctx, frame.body) and self.settled:
-            self.heard[frame.src] = ctx.tick
+            old = self.table.get(row.rid)
+            if old is None or row.stamp > old[2]:
+                self.table[row.rid] = [float(row.x), float(row.y), row.stamp, list(row.neighbours)]
 
     # ------------------------------------------------------------ removal (R12)
     def _lost(self, ctx: Context, r: int, how: str) -> None:
@@ -571,35 +561,25 @@ class Biconnectivity(Behavior):
         lead["d"].append(d)
         c_ticks = math.ceil(self.N * self.c / self._tick_len(ctx) - 1e-9)
         start = ctx.tick + c_ticks + 1
-        body = [ctx.id, lead["rounds"], lead["removed"], lead["pos"], d, start, self.speed]
+        body = Move(ctx.id, lead["rounds"], lead["removed"], lead["pos"], d, start, self.speed)
         move_ticks = math.ceil(d / (self.speed * ctx.dt) - 1e-9) if d > 0 else 0
         lead["check_at"] = start + move_ticks + 1
         self._accept_move(ctx, body)
 
-    def _accept_move(self, ctx: Context, body: list) -> None:
-        leader, rnd, removed, pos, d, start, speed = body
-        key = (leader, rnd, removed)
+    def _accept_move(self, ctx: Context, body: Move) -> None:
+        key = (body.leader, body.round, body.removed)
         if key in self.moves_seen:
             return
         self.moves_seen.add(key)
-        ctx.broadcast(MOVE, body)  # forward once
+        BODIES.broadcast(ctx, body)  # forward once
+        removed = body.removed
         if removed not in self.removed:
             self.removed.add(removed)
             self.heard.pop(removed, None)
             self.table.pop(removed, None)
-        if d > 0 and self.settled:
-            self.move_queue.append({"pos": np.array(pos, dtype=float), "d": float(d), "start": int(start),
-                                    "speed": float(speed), "x0": None})
-
-    def _on_move(self, ctx: Context, frame: Frame) -> None:
-        b = frame.body
-        if not (isinstance(b, list) and len(b) == 7 and all(isinstance(v, int) for v in b[:3])
-                and isinstance(b[3], list) and len(b[3]) == 2 and all(isinstance(v, (int, float)) for v in b[3])
-                and isinstance(b[4], (int, float)) and b[4] >= 0 and isinstance(b[5], int)
-                and isinstance(b[6], (int, float)) and b[6] > 0):
-            self.malformed["move"] += 1
-            return
-        self._accept_move(ctx, b)
+        if body.d > 0 and self.settled:
+            self.move_queue.append({"pos": np.array(body.pos, dtype=float), "d": float(body.d),
+                                    "start": int(body.start), "speed": float(body.speed), "x0": None})
 
     def _motion_tick(self, ctx: Context) -> None:
         """Follow the current MOVE: after k ticks the robot is at prox(x0, pos, min(k·speed·dt, d))."""
@@ -665,7 +645,7 @@ class Biconnectivity(Behavior):
         phase = js["phase"]
         if phase in ("ask", "ask2"):
             if js["until"] is None:
-                ctx.broadcast(POS_REQUEST, [ctx.id])
+                BODIES.broadcast(ctx, PosRequest(ctx.id))
                 js["asked"] += 1
                 js["until"] = ctx.now + wait
                 return

@@ -48,8 +48,27 @@ import math
 from collections import Counter
 
 import numpy as np
+from msgspec.structs import replace
 
 from protocols.relays import motion, planner
+from protocols.relays.messages import (
+    BID,
+    BODIES,
+    CHAIN,
+    FREE,
+    JOIN,
+    KINDS,
+    NEED,
+    NETWORKER,
+    ROOT,
+    TASK,
+    WORKER,
+    Bid,
+    Chain,
+    Join,
+    Need,
+    Task,
+)
 from protocols.relays.zones import robots_needed
 from protocols.stigmergy.behavior import Election
 from protocols.stigmergy.table import KINDS as VS_KINDS
@@ -57,8 +76,7 @@ from protocols.stigmergy.table import Stigmergy
 from swarmactors import Behavior, Context, Frame
 from swarmactors.robot.behavior import is_int, is_num
 
-CHAIN, TASK, BID, JOIN, NEED = "REL_CHAIN", "REL_TASK", "REL_BID", "REL_JOIN", "REL_NEED"
-ROOT, WORKER, NETWORKER, FREE = "root", "worker", "networker", "free"
+__all__ = ["BID", "CHAIN", "FREE", "JOIN", "NEED", "NETWORKER", "ROOT", "TASK", "WORKER", "Relays", "valid_plan"]
 
 
 def valid_plan(v) -> str | None:
@@ -83,11 +101,14 @@ def valid_plan(v) -> str | None:
     return None
 
 
+UNHEARD = Chain(role=None)  # a new link's entry in ``heard`` until its first REL_CHAIN
+
+
 class Relays(Behavior):
     """Self-healing connectivity chains from a root to targets (Swarm Relays, Varadharajan et al. 2020)."""
 
     name = "relays"
-    kinds = (*VS_KINDS, CHAIN, TASK, BID, JOIN, NEED)
+    kinds = (*VS_KINDS, *KINDS)
     plot_field = "role"
     plot_marks = {"targets": "target"}  # the run plot draws the targets (swarmactors.tools.plots)
 
@@ -116,7 +137,7 @@ class Relays(Behavior):
         self.up: list[int] = []
         self.dn: list[int] = []
         self.done = False  # the chain's worker is at its target now (propagated down, not sticky)
-        self.heard: dict[int, tuple[int, dict]] = {}  # neighbour -> (tick, last REL_CHAIN body)
+        self.heard: dict[int, tuple[int, Chain]] = {}  # neighbour -> (tick, last REL_CHAIN body)
         self.sensed: dict[int, np.ndarray] = {}
         self.seen: tuple | None = None  # (tick, sensed, own position) of the last tick, for the velocities
         self.vel: dict[int, np.ndarray] = {}  # sensed robot -> its velocity estimated from two sensings
@@ -137,6 +158,7 @@ class Relays(Behavior):
         self.reached_at: int | None = None
         self.plan_status: str | None = None
         self.refused: Counter = Counter()
+        self.malformed: Counter = Counter()  # frames that did not decode, by cause
         self.slots: dict[str, dict] = {}  # CBAA: open slots heard {pos, close, y, z, owner, chain}
         self.choice: str | None = None  # the slot this free robot bids on
         self.pending: dict[int, dict] = {}  # chain -> this robot's own open slot
@@ -228,74 +250,71 @@ class Relays(Behavior):
     def on_frame(self, ctx: Context, frame: Frame) -> None:
         if self.node.on_frame(ctx, frame):
             return
-        body = frame.body
-        if not isinstance(body, dict):
-            self.refused["malformed " + frame.kind] += 1
-            return
-        handler = {CHAIN: self._on_chain, TASK: self._on_task, BID: self._on_bid, JOIN: self._on_join,
-                   NEED: self._on_need}[frame.kind]
-        try:
-            handler(ctx, frame.src, body)
-        except (KeyError, TypeError, ValueError, IndexError):
-            self.refused["malformed " + frame.kind] += 1
+        match BODIES.decode(frame, self.malformed):  # None for a body that does not fit, counted by cause
+            case Chain() as b:
+                self._on_chain(ctx, frame.src, b)
+            case Task() as b:
+                self._on_task(ctx, frame.src, b)
+            case Bid() as b:
+                self._on_bid(ctx, b)
+            case Join() as b:
+                self._on_join(ctx, b)
+            case Need() as b:
+                self._on_need(ctx, frame.src, b)
 
-    def _on_chain(self, ctx: Context, src: int, b: dict) -> None:
+    def _on_chain(self, ctx: Context, src: int, b: Chain) -> None:
         """Status broadcast: remember it; take chain, depth and C_local from parent and child."""
-        if not isinstance(b.get("r"), str):
-            raise ValueError
-        up, dn = [int(x) for x in b.get("up", [])], [int(x) for x in b.get("dn", [])]
         self.heard[src] = (ctx.tick, b)
-        if self.role == ROOT and b.get("p") == ctx.id and is_int(b.get("c")) and b["r"] in (WORKER, NETWORKER):
-            self.base_seen[b["c"]] = (ctx.tick, int(b["n"]) if is_int(b.get("n")) else 0)
-        if src == self.parent and self.role in (WORKER, NETWORKER) and b["r"] == FREE and src != self.root:
+        if self.role == ROOT and b.parent == ctx.id and b.chain is not None and b.role in (WORKER, NETWORKER):
+            self.base_seen[b.chain] = (ctx.tick, b.n)
+        if src == self.parent and self.role in (WORKER, NETWORKER) and b.role == FREE and src != self.root:
             self.parent, self.parent_lost = None, True  # a recruit released before it heard me take it (R5)
             return
         if src == self.parent and self.role in (WORKER, NETWORKER):
-            self.chain = b.get("c") if src != self.root else self.chain
-            self.depth = int(b["d"]) + 1 if is_int(b.get("d")) else self.depth
-            self.up = [ctx.id] + up[: self.k]
+            self.chain = b.chain if src != self.root else self.chain
+            self.depth = b.depth + 1 if b.depth is not None else self.depth
+            self.up = [ctx.id] + b.up[: self.k]
         if (self.role in (WORKER, NETWORKER) and self.parent is not None and src not in (self.parent, self.root)
-                and b.get("ch") == ctx.id and b.get("p") == self.parent and b.get("c") == self.chain
+                and b.child == ctx.id and b.parent == self.parent and b.chain == self.chain
                 and self._dist(ctx, src) <= self.ds):
             self.parent = src  # Prop. 1: a recruit now sits between my parent and me
-            self.depth = int(b["d"]) + 1 if is_int(b.get("d")) else self.depth
-            self.up = [ctx.id] + up[: self.k]
-        if self.role in (WORKER, NETWORKER) and self.child is not None and (src == self.child or b.get("p") == ctx.id):
+            self.depth = b.depth + 1 if b.depth is not None else self.depth
+            self.up = [ctx.id] + b.up[: self.k]
+        if self.role in (WORKER, NETWORKER) and self.child is not None and (src == self.child or b.parent == ctx.id):
             self._child_moved(ctx)
         if src == self.child:
-            self.cnt = int(b["n"]) + 1 if is_int(b.get("n")) else self.cnt
-            self.acked = self.acked or b.get("p") == ctx.id
-            self.dn = [ctx.id] + dn[: self.k]
-            self.done = bool(b.get("ok"))
-        if (self.role in (WORKER, NETWORKER) and self.child is None and b.get("p") == ctx.id
-                and b.get("c") == self.chain and src != self.parent):  # R6: a lower robot spliced to me
+            self.cnt = b.n + 1
+            self.acked = self.acked or b.parent == ctx.id
+            self.dn = [ctx.id] + b.dn[: self.k]
+            self.done = b.ok
+        if (self.role in (WORKER, NETWORKER) and self.child is None and b.parent == ctx.id
+                and b.chain == self.chain and src != self.parent):  # R6: a lower robot spliced to me
             self.child = src
             self.splices.append([ctx.tick, "child", src])
 
-    def _on_task(self, ctx: Context, src: int, b: dict) -> None:
+    def _on_task(self, ctx: Context, src: int, b: Task) -> None:
         """CBAA: a recruiter opened a slot; a free robot adds it to its task list."""
-        key, close = str(b["key"]), int(b["close"])
-        if self.role == FREE and key not in self.slots and close > ctx.tick \
-                and (not b.get("fly") or self.kind == "flying"):  # a flying slot takes flying robots only
-            self.slots[key] = {"pos": [float(v) for v in b["pos"][:2]], "close": close, "y": -math.inf,
-                               "z": None, "owner": src, "chain": b.get("c"), "fly": bool(b.get("fly"))}
+        if self.role == FREE and b.key not in self.slots and b.close > ctx.tick \
+                and (not b.fly or self.kind == "flying"):  # a flying slot takes flying robots only
+            self.slots[b.key] = {"pos": [float(v) for v in b.pos[:2]], "close": b.close, "y": -math.inf,
+                                 "z": None, "owner": src, "chain": b.chain, "fly": b.fly}
 
-    def _on_bid(self, ctx: Context, src: int, b: dict) -> None:
+    def _on_bid(self, ctx: Context, b: Bid) -> None:
         """CBAA consensus: keep the larger (bid, -id) per slot; an outbid robot bids again next tick."""
-        for key, (y, z) in b["bids"].items():
+        for key, (y, z) in b.bids.items():
             slot = self.slots.get(key) or next((p for p in self.pending.values() if p["key"] == key), None)
-            if slot is None or not is_num(y) or not is_int(z):
+            if slot is None:
                 continue
             if (y, -z) > (slot["y"], -(slot["z"] if slot["z"] is not None else 10**9)):
                 slot["y"], slot["z"] = float(y), int(z)
                 if self.choice == key and z != ctx.id:
                     self.choice = None
 
-    def _on_join(self, ctx: Context, src: int, b: dict) -> None:
+    def _on_join(self, ctx: Context, b: Join) -> None:
         """A recruiter's call: a free robot becomes a networker between the root and the recruiter."""
         if self.role != FREE:
             return
-        self.role, self.chain, self.parent, self.child = NETWORKER, b["c"], int(b["parent"]), int(b["child"])
+        self.role, self.chain, self.parent, self.child = NETWORKER, b.chain, b.parent, b.child
         self.depth = 1
         self.up, self.dn = [ctx.id, self.parent], [ctx.id, self.child]
         self.slots, self.choice = {}, None
@@ -303,26 +322,25 @@ class Relays(Behavior):
         self.acked = False
         for j in (self.parent, self.child):  # a new link starts as heard: it has link_fail to show up
             if j not in self.heard or self.heard[j][0] < ctx.tick:
-                self.heard[j] = (ctx.tick, {**self.heard.get(j, (0, {}))[1], "r": None})
+                self.heard[j] = (ctx.tick, replace(self.heard.get(j, (0, UNHEARD))[1], role=None))
         self._load_plan(ctx)
 
     def _child_moved(self, ctx: Context) -> None:
         """R5: my child took a recruit x as its parent, and x names me as its parent: x is my child now."""
         h = self.heard.get(self.child)
-        x = h[1].get("p") if h is not None else None
-        if not is_int(x) or x == ctx.id:
+        x = h[1].parent if h is not None else None
+        if x is None or x == ctx.id:
             return
         hx = self.heard.get(x)
-        if hx is not None and hx[1].get("p") == ctx.id and hx[1].get("ch") == self.child \
-                and hx[1].get("c") == self.chain:
+        if hx is not None and hx[1].parent == ctx.id and hx[1].child == self.child and hx[1].chain == self.chain:
             self.child = x
 
-    def _on_need(self, ctx: Context, src: int, b: dict) -> None:
+    def _on_need(self, ctx: Context, src: int, b: Need) -> None:
         """The head's request for a robot travels towards the root until a robot with free neighbours (Sec. IV)."""
         if self.role == ROOT:  # a base without free neighbours: the root recruits in front of it
-            c = b.get("c")
+            c = b.chain
             h = self.heard.get(src)
-            if is_int(c) and c not in self.pending and h is not None and h[1].get("p") == ctx.id:
+            if c not in self.pending and h is not None and h[1].parent == ctx.id:
                 self._open(ctx, c, src, ctx.id)
             return
         if self.role not in (WORKER, NETWORKER) or src != self.child:
@@ -330,7 +348,7 @@ class Relays(Behavior):
         if self.parent == self.root or self._can_recruit(ctx):
             self.need_until = ctx.tick + self._ticks(ctx, "recruit")
         elif self.parent is not None:
-            ctx.send(self.parent, NEED, {"c": self.chain})
+            BODIES.send(ctx, self.parent, Need(self.chain))
 
     # ------------------------------------------------------------------ tick
     def on_tick(self, ctx: Context, sensed) -> None:
@@ -666,7 +684,7 @@ class Relays(Behavior):
 
     def _free_neighbours(self, ctx: Context) -> list[int]:
         f = self._ticks(ctx, "forget")
-        return sorted(j for j, (t, b) in self.heard.items() if b.get("r") == FREE and ctx.tick - t <= f)
+        return sorted(j for j, (t, b) in self.heard.items() if b.role == FREE and ctx.tick - t <= f)
 
     def _can_recruit(self, ctx: Context) -> bool:
         """A chain robot recruits itself when it heard a free robot within ``forget_time`` (Sec. IV).
@@ -698,7 +716,7 @@ class Relays(Behavior):
             if self.parent == self.root or self._can_recruit(ctx):
                 self.need_until = ctx.tick + every
             else:
-                ctx.send(self.parent, NEED, {"c": self.chain})
+                BODIES.send(ctx, self.parent, Need(self.chain))
         if self.chain in self.pending:
             return
         want = stretched and not self.done and (self.wp or ctx.tick <= self.need_until)
@@ -709,7 +727,7 @@ class Relays(Behavior):
             return
         if ctx.tick - self.root_asked >= every:  # the root, where free robots wait, recruits in front of me
             self.root_asked = ctx.tick
-            ctx.send(self.root, NEED, {"c": self.chain})
+            BODIES.send(ctx, self.root, Need(self.chain))
 
     def _open(self, ctx: Context, chain: int, child: int, parent: int) -> None:
         """Open a CBAA slot: a free robot to sit between ``parent`` and ``child`` (one of them is me).
@@ -725,8 +743,8 @@ class Relays(Behavior):
             pos = self.root_pos if self.root_pos is not None else self._pos(ctx)
         else:
             pos = self.sensed.get(parent, self._pos(ctx))
-        ctx.broadcast(TASK, {"key": key, "pos": [float(v) for v in pos], "close": close, "c": chain,
-                             "fly": self._needs_flying(chain, child, child == ctx.id)})
+        BODIES.broadcast(ctx, Task(key, [float(v) for v in pos], close, chain,
+                                   self._needs_flying(chain, child, child == ctx.id)))
 
     def _needs_flying(self, chain: int, base: int, mine: bool = False) -> bool:
         """A recruit must fly while the chain holds fewer robots than the airborne part of pi needs."""
@@ -744,7 +762,7 @@ class Relays(Behavior):
             have = 1 if self.child is None else self.cnt
         else:
             h = self.heard.get(base)
-            have = h[1].get("n") if h is not None and is_int(h[1].get("n")) else 0
+            have = h[1].n if h is not None else 0
         return have < math.ceil(airborne / self.ds)
 
     def _run_slot(self, ctx: Context, chain: int) -> None:
@@ -754,21 +772,25 @@ class Relays(Behavior):
         REL_JOIN would otherwise cost ``join_time``; a robot that is no longer free ignores it).
         """
         p = self.pending[chain]
-        call = {"c": chain, "parent": p["parent"], "child": p["child"], "key": p["key"]}
+        call = Join(chain, p["parent"], p["child"], p["key"])
         if p.get("called") is None:
             if ctx.tick >= p["close"]:
                 if p["z"] is None:
                     del self.pending[chain]
                     self.slot_empty_at = ctx.tick
                 else:
-                    ctx.send(p["z"], JOIN, call)
+                    BODIES.send(ctx, p["z"], call)
                     p["called"] = p["z"]
             return
         w = self.heard.get(p["called"])
-        if w is not None and w[1].get("r") == FREE and ctx.tick - w[0] <= 1:
-            ctx.send(p["called"], JOIN, call)
-        h = (0, {"p": self.parent}) if p["child"] == ctx.id else self.heard.get(p["child"])
-        if h is not None and h[1].get("p") == p["called"]:  # the child took the recruit as its parent
+        if w is not None and w[1].role == FREE and ctx.tick - w[0] <= 1:
+            BODIES.send(ctx, p["called"], call)
+        if p["child"] == ctx.id:
+            childs_parent = self.parent
+        else:
+            h = self.heard.get(p["child"])
+            childs_parent = h[1].parent if h is not None else None
+        if childs_parent == p["called"]:  # the child took the recruit as its parent
             self.joined.append([ctx.tick, p["called"]])
             del self.pending[chain]
         elif ctx.tick > p["close"] + self._ticks(ctx, "join"):
@@ -795,7 +817,7 @@ class Relays(Behavior):
                 self.choice = best[1]
                 self.slots[best[1]]["y"], self.slots[best[1]]["z"] = best[0], ctx.id
         if self.slots:
-            ctx.broadcast(BID, {"bids": {k: [s["y"], s["z"]] for k, s in self.slots.items() if s["z"] is not None}})
+            BODIES.broadcast(ctx, Bid({k: (s["y"], s["z"]) for k, s in self.slots.items() if s["z"] is not None}))
 
     def _at_target(self) -> bool:
         return self.path is not None and self.s is not None and self.s >= self.path[1][-1] - 1e-6 \
@@ -812,7 +834,7 @@ class Relays(Behavior):
             if d > self.ds:
                 u = v / d * min(self.vmax, (d - self.ds) / ctx.dt + 1e-9)
             for j, (_t, b) in self.heard.items():  # step aside from chain robots
-                if b.get("r") in (WORKER, NETWORKER) and j in self.sensed:
+                if b.role in (WORKER, NETWORKER) and j in self.sensed:
                     w = x - self.sensed[j]
                     dw = float(np.linalg.norm(w))
                     if 1e-9 < dw < 2 * self.rcol + 0.3:
@@ -901,10 +923,8 @@ class Relays(Behavior):
     def _broadcast(self, ctx: Context) -> None:
         if self.role == ROOT:
             self.up, self.dn = [ctx.id], [ctx.id]
-        body = {"r": self.role, "c": self.chain, "p": self.parent, "ch": self.child, "d": self.depth,
-                "up": self.up[: self.k + 1], "dn": self.dn[: self.k + 1], "ok": self.done,
-                "n": 1 if self.child is None else self.cnt}
-        ctx.broadcast(CHAIN, body)
+        BODIES.broadcast(ctx, Chain(self.role, self.chain, self.parent, self.child, self.depth, self.up[: self.k + 1],
+                                    self.dn[: self.k + 1], self.done, 1 if self.child is None else self.cnt))
 
     # ------------------------------------------------------------------ report
     def report(self) -> dict:
@@ -914,7 +934,8 @@ class Relays(Behavior):
             "reached_at": self.reached_at,
             "path": self.plan["pi"] if self.plan and self.plan.get("pe") and self.role == WORKER else None,
             "n": self.plan.get("n") if self.plan else None, "kind": self.kind,
-            "refused": dict(self.refused), "failed": self.failed, "splices": self.splices, "joined": self.joined,
+            "refused": dict(self.refused), "malformed": dict(self.malformed), "failed": self.failed,
+            "splices": self.splices, "joined": self.joined,
             "stigmergy": self.node.counters(),
         }
 
@@ -923,4 +944,5 @@ class Relays(Behavior):
         reached = [r["reached_at"] for r in reports.values() if r.get("reached_at") is not None]
         return {"robots": len(reports), "reached": len(reached), "last_reached": max(reached, default=None),
                 "refused": sum(sum(r.get("refused", {}).values()) for r in reports.values()),
+                "malformed": sum(sum(r.get("malformed", {}).values()) for r in reports.values()),
                 "in_chains": sum(r["role"] in (WORKER, NETWORKER) for r in reports.values())}

@@ -12,6 +12,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from protocols.relays.behavior import FREE, JOIN, NEED, NETWORKER, TASK, WORKER, Relays
+from protocols.relays.messages import BODIES, CHAIN, Need
 
 DT = 0.2
 
@@ -25,8 +26,13 @@ class Ctx(SimpleNamespace):
     def send(self, dst, kind, body):
         self.sent.append((dst, kind, body))
 
-    def broadcast(self, kind, body):
+    def broadcast(self, kind, body, exclude=()):
         self.cast.append((kind, body))
+
+
+def chain_body(said: dict):
+    """A REL_CHAIN body as a robot receives it (decoded)."""
+    return BODIES.decode_body(CHAIN, said)
 
 
 # the chain 0 (root) - 1 (base) - 2 - 3 (head) along the x axis, 1.4 m apart (every link stretched)
@@ -45,9 +51,9 @@ def robot(rid: int, hears_free: bool, tick: int = 100, wp: bool = False) -> tupl
     r.sensed = {j: np.array(p) for j, p in X.items() if j != rid}
     for j in (r.parent, r.child):
         if j is not None:
-            r.heard[j] = (tick, {"r": NETWORKER, "c": 0, "p": PARENT.get(j), "ch": CHILD.get(j), "d": j})
+            r.heard[j] = (tick, chain_body({"r": NETWORKER, "c": 0, "p": PARENT.get(j), "ch": CHILD.get(j), "d": j}))
     if hears_free:
-        r.heard[5] = (tick - 1, {"r": FREE, "c": None, "p": None, "ch": None, "d": None})
+        r.heard[5] = (tick - 1, chain_body({"r": FREE, "c": None, "p": None, "ch": None, "d": None}))
     return r, Ctx(rid, tick, X[rid])
 
 
@@ -59,7 +65,7 @@ def test_a_head_without_free_neighbours_passes_its_request_down():
 
 def test_the_request_travels_down_past_robots_without_free_neighbours():
     mid, ctx = robot(2, hears_free=False)
-    mid._on_need(ctx, 3, {"c": 0})
+    mid._on_need(ctx, 3, Need(0))
     assert ctx.sent == [(1, NEED, {"c": 0})]  # passed on towards the root
     mid._recruit(ctx)
     assert not mid.pending and not ctx.cast  # it does not recruit
@@ -67,7 +73,7 @@ def test_the_request_travels_down_past_robots_without_free_neighbours():
 
 def test_the_first_robot_with_free_neighbours_recruits_in_front_of_itself():
     mid, ctx = robot(2, hears_free=True)
-    mid._on_need(ctx, 3, {"c": 0})
+    mid._on_need(ctx, 3, Need(0))
     assert ctx.sent == []  # the request stops here
     mid._recruit(ctx)
     assert mid.pending[0]["parent"] == 1 and mid.pending[0]["child"] == 2  # between its parent and itself
@@ -80,7 +86,7 @@ def test_the_first_robot_with_free_neighbours_recruits_in_front_of_itself():
     assert (5, JOIN, {"c": 0, "parent": 1, "child": 2, "key": task["key"]}) in ctx.sent
     # the recruit names 1 as parent and 2 as child; within d_s, robot 2 takes it as its parent
     mid.sensed[5] = np.array([2.1, 0.1])
-    mid._on_chain(ctx, 5, {"r": NETWORKER, "c": 0, "p": 1, "ch": 2, "d": 2, "up": [5, 1, 0], "dn": [5]})
+    mid._on_chain(ctx, 5, chain_body({"r": NETWORKER, "c": 0, "p": 1, "ch": 2, "d": 2, "up": [5, 1, 0], "dn": [5]}))
     assert mid.parent == 5 and mid.depth == 3
     ctx.tick += 1
     mid._recruit(ctx)
@@ -97,47 +103,47 @@ def test_the_old_parent_takes_the_recruit_as_its_child():
     """Robot 1's child 2 took recruit 6 (which names 1 as parent, 2 as child): 6 is 1's child now, in either order."""
     for order in ((2, 6), (6, 2)):
         base, ctx = robot(1, hears_free=False)
-        said = {2: {"r": NETWORKER, "c": 0, "p": 6, "ch": 3, "d": 3},
-                6: {"r": NETWORKER, "c": 0, "p": 1, "ch": 2, "d": 2}}
+        said = {2: chain_body({"r": NETWORKER, "c": 0, "p": 6, "ch": 3, "d": 3}),
+                6: chain_body({"r": NETWORKER, "c": 0, "p": 1, "ch": 2, "d": 2})}
         base._on_chain(ctx, order[0], said[order[0]])
         assert base.child == 2
         base._on_chain(ctx, order[1], said[order[1]])
         assert base.child == 6
     other, ctx = robot(1, hears_free=False)  # a robot naming 1 as parent but not sitting above 2: ignored
-    other._on_chain(ctx, 2, {"r": NETWORKER, "c": 0, "p": 6, "ch": 3, "d": 3})
-    other._on_chain(ctx, 6, {"r": NETWORKER, "c": 0, "p": 1, "ch": 4, "d": 2})
+    other._on_chain(ctx, 2, chain_body({"r": NETWORKER, "c": 0, "p": 6, "ch": 3, "d": 3}))
+    other._on_chain(ctx, 6, chain_body({"r": NETWORKER, "c": 0, "p": 1, "ch": 4, "d": 2}))
     assert other.child == 2
 
 
 def test_a_base_without_free_neighbours_asks_the_root_which_recruits_in_front_of_it():
     base, ctx = robot(1, hears_free=False)
-    base._on_need(ctx, 2, {"c": 0})
+    base._on_need(ctx, 2, Need(0))
     base._recruit(ctx)
     assert ctx.sent == [(0, NEED, {"c": 0})] and not base.pending
     root = Relays([[8.0, 0.0]], root=0)
     root.rel = SimpleNamespace(peek=lambda key: None)
     root.role, root.root_pos = "root", np.array(X[0])
-    root.heard[1] = (100, {"r": NETWORKER, "c": 0, "p": 0, "ch": 2, "d": 1})
+    root.heard[1] = (100, chain_body({"r": NETWORKER, "c": 0, "p": 0, "ch": 2, "d": 1}))
     rctx = Ctx(0)
-    root._on_need(rctx, 1, {"c": 0})
+    root._on_need(rctx, 1, Need(0))
     assert root.pending[0]["parent"] == 0 and root.pending[0]["child"] == 1
 
 
 def test_a_slot_that_closes_empty_sends_the_next_requests_down_for_forget_time():
     mid, ctx = robot(2, hears_free=True)
-    mid._on_need(ctx, 3, {"c": 0})
+    mid._on_need(ctx, 3, Need(0))
     mid._recruit(ctx)
     ctx.tick = mid.pending[0]["close"]
     mid._recruit(ctx)  # nobody bid
     assert 0 not in mid.pending and mid.slot_empty_at == ctx.tick
     ctx.sent.clear()
     mid.heard[5] = (ctx.tick, mid.heard[5][1])
-    mid._on_need(ctx, 3, {"c": 0})
+    mid._on_need(ctx, 3, Need(0))
     assert ctx.sent == [(1, NEED, {"c": 0})]
     ctx.tick += mid._ticks(ctx, "forget") + 1
     mid.heard[5] = (ctx.tick, mid.heard[5][1])
     ctx.sent.clear()
-    mid._on_need(ctx, 3, {"c": 0})
+    mid._on_need(ctx, 3, Need(0))
     assert ctx.sent == []  # it recruits again
 
 
@@ -188,24 +194,24 @@ def test_a_free_robot_bids_only_on_slots_within_d_s_of_the_recruits_parent():
 def test_a_recruit_not_yet_taken_does_not_recruit_it_passes_the_request_on():
     mid, ctx = robot(2, hears_free=True)
     mid.acked = False
-    mid._on_need(ctx, 3, {"c": 0})
+    mid._on_need(ctx, 3, Need(0))
     assert ctx.sent == [(1, NEED, {"c": 0})]
 
 
 def test_the_call_is_repeated_while_the_winner_is_still_heard_free():
     mid, ctx = robot(2, hears_free=True)
-    mid._on_need(ctx, 3, {"c": 0})
+    mid._on_need(ctx, 3, Need(0))
     mid._recruit(ctx)
     mid.pending[0]["z"] = 5
     ctx.tick = mid.pending[0]["close"]
     mid._recruit(ctx)
     assert [s[1] for s in ctx.sent] == [JOIN]
     ctx.tick += 1
-    mid.heard[5] = (ctx.tick - 1, {"r": FREE})  # the call was lost: still free
+    mid.heard[5] = (ctx.tick - 1, chain_body({"r": FREE}))  # the call was lost: still free
     mid._recruit(ctx)
     assert [s[1] for s in ctx.sent] == [JOIN, JOIN]
     ctx.tick += 1
-    mid.heard[5] = (ctx.tick - 1, {"r": NETWORKER, "c": 0, "p": 1, "ch": 2})  # it joined
+    mid.heard[5] = (ctx.tick - 1, chain_body({"r": NETWORKER, "c": 0, "p": 1, "ch": 2}))  # it joined
     mid._recruit(ctx)
     assert [s[1] for s in ctx.sent] == [JOIN, JOIN]
 
@@ -235,9 +241,9 @@ def test_a_slot_needs_a_flying_robot_only_while_the_chain_cannot_cover_the_airbo
     mid.cnt = 2  # itself and the worker above it: enough
     assert not mid._needs_flying(0, 2, mine=True)
     root, _ = _airborne_robot(1, 2.0)
-    root.heard[1] = (100, {"r": NETWORKER, "n": 1})  # the base announces a chain of 1 robot
+    root.heard[1] = (100, chain_body({"r": NETWORKER, "n": 1}))  # the base announces a chain of 1 robot
     assert root._needs_flying(0, 1)
-    root.heard[1] = (100, {"r": NETWORKER, "n": 2})
+    root.heard[1] = (100, chain_body({"r": NETWORKER, "n": 2}))
     assert not root._needs_flying(0, 1)
     ground, _ = _airborne_robot(1, 0.0)
     assert not ground._needs_flying(0, 1)  # a ground plan never asks for flying robots

@@ -9,6 +9,7 @@ import pytest
 
 from protocols.relays import motion, oracle, planner
 from protocols.relays.behavior import Relays, valid_plan
+from protocols.relays.messages import Chain
 from protocols.relays.zones import BREAKAWAY, CRITICAL, OUT, SAFE, link_quality, robots_needed, zone
 from swarmactors import Result
 
@@ -193,9 +194,9 @@ def test_a_parent_that_announces_itself_free_is_lost_and_join_time_defaults_to_l
 
     r = Relays([[8.0, 0.0]], root=0)
     r.role, r.chain, r.parent, r.child = "networker", 0, 7, 9
-    r._on_chain(SimpleNamespace(tick=5, id=3), 7, {"r": "free", "c": None, "p": None, "ch": None, "d": None})
+    r._on_chain(SimpleNamespace(tick=5, id=3), 7, Chain("free"))
     assert r.parent is None and r.parent_lost and r.chain == 0  # the chain id is not taken from a free robot
     r.parent = 0
-    r._on_chain(SimpleNamespace(tick=6, id=3), 0, {"r": "root", "c": None, "p": None, "ch": None, "d": 0})
+    r._on_chain(SimpleNamespace(tick=6, id=3), 0, Chain("root", depth=0))
     assert r.parent == 0  # the root is never a lost parent
     assert r.times["join"] == r.times["fail"] == 5.0 and Relays([[1, 0]], join_time=30.0).times["join"] == 30.0
