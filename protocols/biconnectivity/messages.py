@@ -1,6 +1,6 @@
 """Biconnectivity's frame bodies, typed: the lists they always were (positional, today's order).
 
-Two wire shapes need more than ``swarmactors.bodies``: a HELLO or POS-REPLY body is the bare list of table rows
+Two wire shapes need more than ``swarmactors.robot.bodies``: a HELLO or POS-REPLY body is the bare list of table rows
 (not a list holding it), and a CHECK-REQUEST carries its fourth item (the period's index in the check, R15)
 only after a check's first period. ``BODIES`` keeps both: a ``Table`` is decoded from and encoded to the bare
 list, and a ``Request`` without an index is sent as three items.
@@ -13,7 +13,7 @@ from typing import Annotated, Any, Union
 
 from msgspec import Meta
 
-from swarmactors.bodies import Bodies, Body, Index, NonNeg, Num
+from swarmactors.robot.bodies import Bodies, Body, Index, NonNeg, Num
 
 CR, DCR = "CR", "DCR"
 CHECK_REQUEST, DC_TRUE, DC_FALSE = "CHECK-REQUEST", "DC-TRUE", "DC-FALSE"

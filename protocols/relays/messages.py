@@ -10,7 +10,7 @@ from typing import Annotated, Literal
 
 from msgspec import Meta, field
 
-from swarmactors.bodies import Bodies, Body, Finite, Index
+from swarmactors.robot.bodies import Bodies, Body, Finite, Index
 
 CHAIN, TASK, BID, JOIN, NEED = "REL_CHAIN", "REL_TASK", "REL_BID", "REL_JOIN", "REL_NEED"
 ROOT, WORKER, NETWORKER, FREE = "root", "worker", "networker", "free"
