@@ -12,8 +12,10 @@ In one process, round-robin over ``--repeats`` (so that a burst of other load sp
 2. the lockstep beacon (scenarios/beacon.toml with N = 10) with K = 0 (robots in this process) and K = 2 (two
    robot-host processes): milliseconds per tick = the tick loop's wall time / ticks (``bench_measure``).
 
-Reported: the medians over the repeats and the K = 2 tick in round trips. ``--profile``: cProfile of one K = 0
-run, its top entries by own time. Nothing is asserted; docs/benchmarks.md ("Small swarms") quotes the numbers.
+Reported: the medians over the repeats, the K = 2 tick in round trips, and the CPU time of this process per tick
+(the world's, with K = 0 the robots' too; on a loaded machine it moves less than the wall time). ``--profile``:
+cProfile of one K = 0 run, its top entries by own time. Nothing is asserted; docs/benchmarks.md ("Small swarms")
+quotes the numbers.
 """
 
 from __future__ import annotations
@@ -111,6 +113,8 @@ def zenoh_rtt(pings: int, payload: bytes, warmup: int = 200) -> dict:
 def tick_run(k: int, ticks: int) -> dict:
     run = measure.lockstep_run(N, k, ticks)
     run["ms_per_tick"] = 1e3 * run["wall_s"] / ticks
+    # CPU of this process (world, and with K = 0 the robots) per tick: what other load on the machine moves least
+    run["cpu_ms_per_tick"] = run["ms_per_tick"] * run["world_cpu_frac"] if run["world_cpu_frac"] else None
     return run
 
 
@@ -141,8 +145,11 @@ def main(argv: list[str] | None = None) -> int:
     rtt = statistics.median(r["median_ms"] for r in rtts)
     k0 = statistics.median(r["ms_per_tick"] for r in runs[0])
     k2 = statistics.median(r["ms_per_tick"] for r in runs[2])
+    cpu = {k: statistics.median(r["cpu_ms_per_tick"] or float("nan") for r in rs) for k, rs in runs.items()}
     res.update({
         "rtt_ms": rtt,
+        "k0_cpu_ms_per_tick": cpu[0],
+        "k2_world_cpu_ms_per_tick": cpu[2],
         "k0_ms_per_tick": k0,
         "k2_ms_per_tick": k2,
         "k0_rtts": k0 / rtt,
@@ -160,6 +167,7 @@ def main(argv: list[str] | None = None) -> int:
           f"{'met' if res['k0_target_met'] else 'missed'})")
     print(f"  K = 2              {k2:.3f} ms/tick  ({k2 / rtt:.2f} round trips; target {TARGET_K2_RTTS:g}: "
           f"{'met' if res['k2_target_met'] else 'missed'})")
+    print(f"  CPU of this process per tick: K = 0 {cpu[0]:.3f} ms (world and robots), K = 2 {cpu[2]:.3f} ms (world)")
 
     if args.profile:
         prof = measure.profile_k0(N, args.ticks, top=args.top)
