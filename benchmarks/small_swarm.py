@@ -12,7 +12,8 @@ In one process, round-robin over ``--repeats`` (so that a burst of other load sp
 2. the lockstep beacon (scenarios/beacon.toml with N = 10) with K = 0 (robots in this process) and K = 2 (two
    robot-host processes): milliseconds per tick = the tick loop's wall time / ticks (``bench_measure``).
 
-Reported: the medians over the repeats, the K = 2 tick in round trips, and the CPU time of this process per tick
+``--idle`` adds robots that do nothing (``idle_behavior:Idle``), the fixed cost of a tick. Reported: the medians
+over the repeats, the K = 2 tick in round trips, and the CPU time of this process per tick
 (the world's, with K = 0 the robots' too; on a loaded machine it moves less than the wall time). ``--profile``:
 cProfile of one K = 0 run, its top entries by own time. Nothing is asserted; docs/benchmarks.md ("Small swarms")
 quotes the numbers.
@@ -110,8 +111,8 @@ def zenoh_rtt(pings: int, payload: bytes, warmup: int = 200) -> dict:
     }
 
 
-def tick_run(k: int, ticks: int) -> dict:
-    run = measure.lockstep_run(N, k, ticks)
+def tick_run(k: int, ticks: int, behavior: str = "beacon") -> dict:
+    run = measure.lockstep_run(N, k, ticks, behavior)
     run["ms_per_tick"] = 1e3 * run["wall_s"] / ticks
     # CPU of this process (world, and with K = 0 the robots) per tick: what other load on the machine moves least
     run["cpu_ms_per_tick"] = run["ms_per_tick"] * run["world_cpu_frac"] if run["world_cpu_frac"] else None
@@ -123,6 +124,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=5, help="rounds of (round trip, K = 0, K = 2); medians reported")
     ap.add_argument("--ticks", type=int, default=2000, help="lockstep ticks per run")
     ap.add_argument("--pings", type=int, default=2000, help="round trips per measurement")
+    ap.add_argument("--idle", action="store_true",
+                    help="also robots that do nothing (idle_behavior:Idle): the fixed cost of a tick, K = 0 and 2")
     ap.add_argument("--profile", action="store_true", help="cProfile of one K = 0 run: the top entries")
     ap.add_argument("--top", type=int, default=25, help="profile entries shown")
     ap.add_argument("--json", type=Path, default=None, metavar="OUT", help="write every number to OUT")
@@ -132,12 +135,16 @@ def main(argv: list[str] | None = None) -> int:
     payload = pack([1.0, b"\x00" * 8])  # a beacon frame body in lockstep
     rtts: list[dict] = []
     runs: dict[int, list[dict]] = {0: [], 2: []}
+    idle: dict[int, list[dict]] = {0: [], 2: []}
     for rep in range(args.repeats):
         rtts.append(zenoh_rtt(args.pings, payload))
         for k in runs:
             runs[k].append(tick_run(k, args.ticks))
             for prob in runs[k][-1]["problems"]:
                 print(f"K={k}: {prob}", file=sys.stderr)
+        if args.idle:
+            for k in idle:
+                idle[k].append(tick_run(k, args.ticks, "idle"))
         print(f"[{rep + 1}/{args.repeats}] rtt {rtts[-1]['median_ms']:.3f} ms  "
               f"K=0 {runs[0][-1]['ms_per_tick']:.3f} ms/tick  K=2 {runs[2][-1]['ms_per_tick']:.3f} ms/tick  "
               f"load {os.getloadavg()[0]:.2f}", flush=True)
@@ -159,6 +166,10 @@ def main(argv: list[str] | None = None) -> int:
         "rtt_runs": rtts,
         "runs": {str(k): rs for k, rs in runs.items()},
     })
+    if args.idle:
+        res["idle"] = {str(k): {"ms_per_tick": statistics.median(r["ms_per_tick"] for r in rs),
+                                "cpu_ms_per_tick": statistics.median(r["cpu_ms_per_tick"] or float("nan") for r in rs),
+                                "runs": rs} for k, rs in idle.items()}
     res["machine"]["loadavg_end"] = list(os.getloadavg())
     print(f"N = {N}, {args.ticks} ticks, median of {args.repeats}, load {res['machine']['loadavg_start'][0]:.2f}"
           f" -> {res['machine']['loadavg_end'][0]:.2f}")
@@ -168,6 +179,9 @@ def main(argv: list[str] | None = None) -> int:
     print(f"  K = 2              {k2:.3f} ms/tick  ({k2 / rtt:.2f} round trips; target {TARGET_K2_RTTS:g}: "
           f"{'met' if res['k2_target_met'] else 'missed'})")
     print(f"  CPU of this process per tick: K = 0 {cpu[0]:.3f} ms (world and robots), K = 2 {cpu[2]:.3f} ms (world)")
+    for k, r in res.get("idle", {}).items():
+        print(f"  idle robots, K = {k}  {r['ms_per_tick']:.3f} ms/tick ({r['ms_per_tick'] / rtt:.2f} round trips), "
+              f"CPU {r['cpu_ms_per_tick']:.3f} ms/tick")
 
     if args.profile:
         prof = measure.profile_k0(N, args.ticks, top=args.top)
