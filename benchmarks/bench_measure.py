@@ -273,6 +273,15 @@ def aggregate(n: int, k: int, ticks: int, runs: list[dict], behavior: str = "bea
 RAW_END = b"END"
 
 
+def own_locator(session: zenoh.Session) -> str:
+    """The first locator a peer session listens on (from its admin space), for another session to connect to."""
+    locators = []
+    for reply in session.get(f"@/{session.zid()}/peer", timeout=5.0):
+        if reply.ok is not None:
+            locators = json.loads(reply.ok.payload.to_bytes()).get("locators", [])
+    return locators[0]
+
+
 def _raw_subscriber(key: str, ready: mp.Queue, out: mp.Queue, done, indirect: bool) -> None:
     """Listen on an ephemeral loopback port, count every sample on ``key``, report the rate.
 
@@ -297,12 +306,7 @@ def _raw_subscriber(key: str, ready: mp.Queue, out: mp.Queue, done, indirect: bo
         state["last"] = now
 
     sub = session.declare_subscriber(key, zenoh.handlers.Callback(on_sample, indirect=indirect))
-    zid = str(session.zid())
-    locators = []
-    for reply in session.get(f"@/{zid}/peer", timeout=5.0):
-        if reply.ok is not None:
-            locators = json.loads(reply.ok.payload.to_bytes()).get("locators", [])
-    ready.put(locators[0])
+    ready.put(own_locator(session))
     ok = finished.wait(120.0)
     n, first, last = state["n"], state["first"], state["last"]
     span = (last - first) if n > 1 else float("nan")
@@ -539,7 +543,7 @@ def summarise_profile(stats: pstats.Stats, top: int = 15) -> dict:
     }
 
 
-def profile_k0(n: int, ticks: int) -> dict:
+def profile_k0(n: int, ticks: int, top: int = 15) -> dict:
     sc = load_beacon(n, ticks)
     prof = cProfile.Profile()
     meter = GcMeter()
@@ -555,7 +559,7 @@ def profile_k0(n: int, ticks: int) -> dict:
             )
         )
         prof.disable()
-    out = summarise_profile(pstats.Stats(prof))
+    out = summarise_profile(pstats.Stats(prof), top=top)
     out.update(
         {
             "n": n,

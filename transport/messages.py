@@ -13,6 +13,7 @@ Wire names are short (a step crosses Zenoh every tick); attribute names say what
 
 from __future__ import annotations
 
+from itertools import pairwise
 from typing import Annotated, Any, Literal
 
 import msgspec
@@ -199,7 +200,13 @@ def _offsets(data: bytes, n: int, total: int, name: str) -> np.ndarray:
             raise ValueError(f"{name}: no offsets for {total} items")
         return np.zeros(n + 1, dtype=I32)
     ptr = _column(data, I32, name)
-    if len(ptr) != n + 1 or ptr[0] != 0 or ptr[-1] != total or (n and (np.diff(ptr) < 0).any()):
+    ok = len(ptr) == n + 1 and ptr[0] == 0 and ptr[-1] == total
+    if ok and n > 1:  # a few offsets are checked faster in Python than through numpy's calls
+        if n <= 64:
+            ok = all(a <= b for a, b in pairwise(ptr.tolist()))
+        else:
+            ok = not (np.diff(ptr) < 0).any()
+    if not ok:
         raise ValueError(f"{name}: not {n + 1} non-decreasing offsets from 0 to {total}")
     return ptr
 

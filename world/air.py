@@ -55,13 +55,15 @@ class Air:
         if not len(copies.dst):
             return []
         slots = np.ceil(copies.due / self.width).astype(np.int64)
+        first = int(slots[0])
+        one = len(slots) == 1 or bool((slots == first).all())  # the common case: every copy due in one slot
         new = []
-        for s in np.unique(slots).tolist():
+        for s in [first] if one else np.unique(slots).tolist():
             group = self._slots.get(s)
             if group is None:
                 group = self._slots[s] = []
                 new.append(s)
-            group.append(copies if len(slots) == 1 or (slots == s).all() else copies.only(slots == s))
+            group.append(copies if one else copies.only(slots == s))
         return new
 
     def pop(self, until: float) -> Copies | None:

@@ -73,7 +73,8 @@ class Barrier:
         if all(self.stepped(h) for h in hosts):
             return True
         try:
-            await asyncio.wait_for(self.all_in.wait(), limit)
+            async with asyncio.timeout(limit):  # no task per wait, as asyncio.wait_for makes one on Python 3.11
+                await self.all_in.wait()
         except TimeoutError:
             return False
         return True

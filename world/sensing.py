@@ -68,12 +68,25 @@ class Reach:
         return cls(indptr, np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64))
 
 
+SMALL_N = 20  # up to this many alive robots, ``reach`` tests all pairs in Python (numpy's calls cost more)
+
+
 def reach(pos: np.ndarray, alive_ids: np.ndarray, radii: np.ndarray) -> Reach:
     """Every alive robot's neighbours within its own radius (the rule in the module's docstring)."""
     n = len(pos)
     alive_ids = np.asarray(alive_ids, dtype=np.int64)
     if alive_ids.size < 2:
         return Reach(np.zeros(n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64))
+    if alive_ids.size <= SMALL_N:
+        small = reach_small(pos, alive_ids, radii)
+        if small is not None:
+            return small
+    return reach_tree(pos, alive_ids, radii)
+
+
+def reach_tree(pos: np.ndarray, alive_ids: np.ndarray, radii: np.ndarray) -> Reach:
+    """``reach`` for two or more alive robots, from a k-d tree's candidate pairs (numpy throughout)."""
+    n = len(pos)
     pts = pos[alive_ids]
     r = radii[alive_ids]
     # an unbalanced, uncompacted tree builds faster and gives the same candidates (the rule decides below)
@@ -93,6 +106,52 @@ def reach(pos: np.ndarray, alive_ids: np.ndarray, radii: np.ndarray) -> Reach:
     indptr = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(counts, out=indptr[1:])
     return Reach(indptr, key - src * n)
+
+
+def reach_small(pos: np.ndarray, alive_ids: np.ndarray, radii: np.ndarray) -> Reach | None:
+    """``reach_tree``'s table by testing every pair in Python floats, bit for bit; None for a radius below 0.
+
+    The squares are summed in the same order on the same doubles as in ``reach_tree`` (b's coordinates minus
+    a's, for a before b in ``alive_ids``), so each pair is decided alike. A pair within a radius r >= 0 is
+    always among the tree's candidates; with a negative (or NaN) radius it may not be, so those go to the tree.
+    """
+    n = len(pos)
+    ids = alive_ids.tolist()
+    pts = pos[alive_ids].tolist()
+    rs = radii[alive_ids].tolist()
+    if not all(r >= 0.0 for r in rs):
+        return None
+    r2 = [r * r for r in rs]
+    rows: list[list[int]] = [[] for _ in range(n)]
+    m = len(ids)
+    planar = len(pts[0]) == 2
+    for a in range(m):
+        pa, ra2, row_a = pts[a], r2[a], rows[ids[a]]
+        if planar:
+            xa, ya = pa
+        for b in range(a + 1, m):
+            pb = pts[b]
+            if planar:
+                dx, dy = pb[0] - xa, pb[1] - ya
+                d2 = dx * dx + dy * dy
+            else:
+                d2 = 0.0
+                for k, x in enumerate(pa):
+                    d = pb[k] - x
+                    d2 = d * d if k == 0 else d2 + d * d
+            if d2 <= ra2:
+                row_a.append(ids[b])
+            if d2 <= r2[b]:
+                rows[ids[b]].append(ids[a])
+    indptr = [0] * (n + 1)
+    total = 0
+    for i, row in enumerate(rows):
+        if len(row) > 1:
+            row.sort()
+        total += len(row)
+        indptr[i + 1] = total
+    return Reach(np.array(indptr, dtype=np.int64),
+                 np.array([j for row in rows for j in row], dtype=np.int64))
 
 
 def within(pos: np.ndarray, alive_ids: np.ndarray, radii: np.ndarray) -> dict[int, np.ndarray]:
