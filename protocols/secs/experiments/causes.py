@@ -35,7 +35,7 @@ VARIANTS: dict[str, dict] = {
     "hyst4": {"align_release": 4.0},  # lost only beyond 4 × 5°
     "strip": {"strip": 0.3},  # aligned also within 0.3 m of the informer's arm line
     "walkback": {"walk_back": True},
-    "eps1e4": {"epsilon": 1e4},  # Lennard-Jones 100× weaker: no longer saturated within ≈ 10 cm of δ
+    "eps1e4": {"epsilon": 1e4},  # Lennard-Jones 100× weaker: not saturated within ≈ 40 cm of δ
     "walkback+diffdrive": {"walk_back": True, "turn_rate": 2.0},
     "hyst3": {"align_release": 3.0},
     "diffdrive+hyst3": {"turn_rate": 2.0, "align_release": 3.0},
