@@ -110,6 +110,12 @@ class SECS(Behavior):
     (δ, ε) of all their neighbours; a robot with no informer of its arm keeps close with δ_close. After
     ``rendezvous_at`` seconds the master floods a smaller δ and every robot moves by Lennard-Jones only;
     after ``flock_at`` seconds it leads the flock (Eq. 3) towards ``flock_to``.
+
+    Opt-in variants, all OFF by default (docs/protocols/secs.md, "Why our arm differs from Table I"):
+    ``align_release`` (alignment lost beyond that many ``align_tol``, default 2; rules.still_aligned),
+    ``turn_rate`` (rad/s: differential-drive bodies, rules.unicycle_step), ``walk_back`` (a robot that loses
+    its alignment out of the master's sight walks back to it, rules.walk_back), ``strip`` (m: also aligned
+    within that distance of the informer's arm line, rules.in_strip).
     """
 
     name = "secs"
@@ -121,13 +127,19 @@ class SECS(Behavior):
                  v_max: float = 0.15, align_tol: float = 0.087, rendezvous_at: float | None = None,
                  delta_rv: float = 90.0, flock_at: float | None = None, flock_to: list | None = None,
                  flock_speed: float = 0.05, task_prefix: str = "task", schedule: dict | None = None,
-                 settle_max: float = 60.0, arrive_tol: float = 0.1):
+                 settle_max: float = 60.0, arrive_tol: float = 0.1, align_release: float = 2.0,
+                 turn_rate: float | None = None, walk_back: bool = False, strip: float | None = None):
         self.master, self.delta, self.epsilon, self.delta_close = master, delta, epsilon, delta_close
         self.v_max, self.align_tol = v_max, align_tol
         self.rendezvous_at, self.delta_rv = rendezvous_at, delta_rv
         self.flock_at, self.flock_to, self.flock_speed = flock_at, flock_to, flock_speed
         self.task_prefix = task_prefix
         self.schedule, self.settle_max, self.arrive_tol = schedule, settle_max, arrive_tol
+        # opt-in variants, OFF by default (docs/protocols/secs.md, "Why our arm differs from Table I"):
+        # hysteresis factor, differential-drive turn rate (rad/s), walk back to the master, strip half-width (m)
+        self.align_release, self.turn_rate, self.walk_back, self.strip = align_release, turn_rate, walk_back, strip
+        self.walking = False
+        self.body_heading = 0.0
         self.ph: int | None = None  # the phase followed (scheduled runs only)
         self.stage: str | None = None  # the master's BMU stage, slot, and since when (s)
         self.slot = 0
@@ -158,9 +170,14 @@ class SECS(Behavior):
         for key in ("delta", "delta_close", "delta_rv", "epsilon", "v_max", "align_tol"):
             if key in params and not (_finite(params[key]) and params[key] > 0):
                 return f"{key} must be a positive number, got {params[key]!r}"
-        for key in ("settle_max", "arrive_tol"):
+        for key in ("settle_max", "arrive_tol", "align_release"):
             if key in params and not (_finite(params[key]) and params[key] > 0):
                 return f"{key} must be a positive number, got {params[key]!r}"
+        for key in ("turn_rate", "strip"):
+            if params.get(key) is not None and not (_finite(params[key]) and params[key] > 0):
+                return f"{key} must be a positive number or absent, got {params[key]!r}"
+        if "walk_back" in params and not isinstance(params["walk_back"], bool):
+            return f"walk_back must be true or false, got {params['walk_back']!r}"
         if params.get("schedule") is not None:
             problem = schedule_problem(params["schedule"])
             if problem:
@@ -179,6 +196,8 @@ class SECS(Behavior):
         if ctx.id == self.master:
             self.dist = 0.0
             self.arm = -1
+        elif self.turn_rate is not None:  # drawn only in this variant: the default runs' draws are unchanged
+            self.body_heading = float(ctx.rng.uniform(0.0, 2 * math.pi))
 
     def _far(self) -> float:
         return min(1.2 * self.delta / 100.0, 2.5)
@@ -233,6 +252,8 @@ class SECS(Behavior):
             body = self._bmu_tick(ctx, nb)
         else:
             body = self._master_tick(ctx, nb)
+        if self.turn_rate is not None and ctx.id != self.master:
+            self.body_heading, self.v = rules.unicycle_step(self.body_heading, self.v, self.turn_rate, ctx.dt)
         ctx.move(list(self.v))
         body["v"] = [round(self.v[0], 6), round(self.v[1], 6)]
         BODIES.broadcast(ctx, Target.of(body))
@@ -390,12 +411,22 @@ class SECS(Behavior):
         self.target = rules.compose_target(t_j, o_ij, m_ji)
         offset = rules.diff(m_ji, t_j)
         was = self.aligned
-        # hysteresis: aligned within align_tol, lost beyond twice that
-        self.aligned = abs(offset) < self.align_tol * (2.0 if was else 1.0)
+        # hysteresis: aligned within align_tol, lost beyond align_release times that
+        self.aligned = rules.still_aligned(offset, self.align_tol, was, self.align_release)
+        if not self.aligned and self.strip is not None and j in nb:
+            self.aligned = rules.in_strip(offset, nb[j][0], self.strip)
+        if self.walk_back:
+            self.walking = rules.walk_back(self.aligned, was, self.walking, sees_master)
         if self.aligned:
             if self.first_aligned is None:
                 self.first_aligned = ctx.tick
             self.v = rules.lj_velocity(list(nb.values()), self.delta, self.v_max, self.epsilon)
+        elif self.walking:  # back towards the master along the swarm: to the parent
+            self.realigned += bool(was)
+            up = [(b["d"] + nb[k][0], k) for k, b in fresh.items() if b.get("d") is not None and k in nb]
+            parent = min(up)[1] if up else j
+            self.v = rules.lj_velocity(rules.gather_pulls(nb, parent, self.delta_close), self.delta_close,
+                                       self.v_max, self.epsilon)
         else:
             self.realigned += bool(was)
             d_now, o_now = nb[j]

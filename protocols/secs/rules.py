@@ -212,3 +212,54 @@ def gather_pulls(neighbours: dict[int, tuple[float, float]], parent: int | None,
     if parent is not None and parent in neighbours:
         out.insert(0, neighbours[parent])
     return out
+
+
+# ------------------------------------------------------------------- opt-in variants (all OFF by default)
+def still_aligned(offset: float, tol: float, was: bool, release: float = 2.0) -> bool:
+    """The alignment test of §III-B-5b ("when a robot finally aligns ... if a robot loses its alignment").
+
+    Aligned when |offset| < ``tol``; a robot already aligned loses it only beyond ``release``·``tol``
+    (hysteresis). ``release`` = 2 is the controller's default; the Buzz code uses one threshold both ways
+    (``release`` = 1). The paper states neither.
+    """
+    return abs(offset) < tol * (release if was else 1.0)
+
+
+def unicycle_step(heading: float, v: Sequence[float], turn_rate: float, dt: float) -> tuple[float, tuple[float, float]]:
+    """A differential-drive body (§IV-A: ARGoS foot-bots) following a commanded velocity ``v``.
+
+    The body turns its ``heading`` towards v's direction by at most ``turn_rate``·``dt`` rad this tick, then
+    drives straight ahead at |v|·max(0, cos(remaining error)): it cannot move sideways, and moves only once
+    roughly facing v. Returns (new heading, the velocity actually driven). A zero ``v`` keeps the heading.
+    """
+    speed = math.hypot(v[0], v[1])
+    if speed == 0.0:
+        return heading, (0.0, 0.0)
+    err = diff(math.atan2(v[1], v[0]), heading)
+    step = max(-turn_rate * dt, min(turn_rate * dt, err))
+    h = wrap(heading + step)
+    ahead = speed * max(0.0, math.cos(err - step))
+    return h, (ahead * math.cos(h), ahead * math.sin(h))
+
+
+def walk_back(aligned: bool, was: bool, walking: bool, sees_master: bool) -> bool:
+    """Whether an unaligned robot walks back to the master (§III-B-5b, "its control goes back").
+
+    A robot that loses its alignment out of the master's sight (``was`` and not ``aligned``), or is already
+    walking back, walks back towards the master along the swarm (to its parent) until it sees the master;
+    there it spirals round the master again and may re-enter the arm through the master's cone. Without it
+    (the default) it spirals round its informer wherever it is.
+    """
+    if aligned or sees_master:
+        return False
+    return walking or was
+
+
+def in_strip(offset: float, distance: float, half_width: float) -> bool:
+    """An alignment cone of constant width (§III-B-5b's "aligns with the prominence", read as a strip).
+
+    With a fixed angular tolerance the cone is 2·``distance``·tan(tol) wide: a few cm next to the informer,
+    so a neighbour's Lennard-Jones push moves a robot out of it. Here a robot also counts as aligned when it
+    is ahead of its informer (|offset| < π/2) and within ``half_width`` m of the informer's arm line.
+    """
+    return abs(offset) < math.pi / 2 and abs(distance * math.sin(offset)) <= half_width
