@@ -307,6 +307,9 @@ def _main(args) -> int:
         if args.command in ("view", "replay", "sweep"):
             from swarmactors.tools.see import command  # the viewer, replays and sweeps (docs/viewer.md)
 
+            if args.command == "sweep":
+                with _signals_interrupt():
+                    return command(args, err)
             return command(args, err)
         sc = _load(args)
     except (ScenarioError, UsageError, ValueError, OSError) as exc:
@@ -441,7 +444,7 @@ def _plots(result, sc: dict, out_dir: Path, err: Console) -> list[str]:
     """
     written: list[Path] = []
     field = _plot_field(sc)
-    with _signals_interrupt_plots():
+    with _signals_interrupt():
         try:
             if result.trace_path is not None or result["robots"]:
                 try:
@@ -462,8 +465,8 @@ def _plots(result, sc: dict, out_dir: Path, err: Console) -> list[str]:
 
 
 @contextlib.contextmanager
-def _signals_interrupt_plots():
-    """SIGINT and SIGTERM raise KeyboardInterrupt inside (whatever handled them before), so drawing stops."""
+def _signals_interrupt():
+    """SIGINT and SIGTERM raise KeyboardInterrupt inside, whatever handled them before (even SIG_IGN)."""
     def stop(_signum, _frame):
         raise KeyboardInterrupt
 

@@ -33,15 +33,33 @@ use = "flooding.delivered"
 GRID = ["--grid", "radio.loss=0,0.3", "--trials", "3"]
 
 
-def _sweep(scenario, out, *extra) -> subprocess.Popen:
+def _sweep(scenario, out, *extra, **popen) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", "swarmactors", "sweep", str(scenario), *GRID, "--out", str(out),
                              "--keep", "all", "--json", *extra], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+                            text=True, **popen)
 
 
 def _rows(path) -> list[dict]:
     with open(path, newline="") as f:
         return list(csv.DictReader(f))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["sigint", "sigterm"])
+def test_a_sweep_started_with_sigint_ignored_still_stops_on_sigint_or_sigterm(tmp_path, signum):
+    """A shell's background job inherits SIGINT ignored; the sweep still stops (130) and keeps its rows."""
+    scenario = tmp_path / "sw.toml"
+    scenario.write_text(SCENARIO)
+    cut = tmp_path / "cut"
+    sweep = _sweep(scenario, cut, "--workers", "1", preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    deadline = time.monotonic() + 120
+    while not (cut / "trials.csv").exists() or len(_rows(cut / "trials.csv")) < 1:
+        assert time.monotonic() < deadline and sweep.poll() is None, sweep.communicate()
+        time.sleep(0.02)
+    sweep.send_signal(signum)
+    _, err = sweep.communicate(timeout=60)
+    assert sweep.returncode == 130, err
+    assert 1 <= len(_rows(cut / "trials.csv")) < 6
 
 
 @pytest.mark.slow
