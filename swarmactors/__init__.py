@@ -11,10 +11,10 @@ releases still import, with a DeprecationWarning, for one more release (``swarma
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
 
 from swarmactors import _moved
+from swarmactors._lazy import lazy_exports
 
 _moved.install()
 
@@ -35,17 +35,7 @@ _HOME = {
 }
 
 
-def __getattr__(name: str):
-    home = _HOME.get(name)
-    if home is None:
-        raise AttributeError(f"module 'swarmactors' has no attribute {name!r}")
-    value = getattr(importlib.import_module(home), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted([*globals(), *_HOME])
+__getattr__, __dir__ = lazy_exports(__name__, _HOME)
 
 
 def run(scenario, **kwargs) -> Result:

@@ -7,8 +7,9 @@ neither: a robot host loads it without the extra.
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
+
+from swarmactors._lazy import lazy_exports
 
 if TYPE_CHECKING:
     from swarmactors.rl.behavior import Observe, RLBehavior
@@ -27,17 +28,7 @@ _HOME = {
 }
 
 
-def __getattr__(name: str):
-    home = _HOME.get(name)
-    if home is None:
-        raise AttributeError(f"module 'swarmactors.rl' has no attribute {name!r}")
-    value = getattr(importlib.import_module(home), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted([*globals(), *_HOME])
+__getattr__, __dir__ = lazy_exports(__name__, _HOME)
 
 
 __all__ = ["Dispersion", "GoalRelay", "Observe", "RLBehavior", "SwarmEnv", "Task", "Truth", "parallel_env"]

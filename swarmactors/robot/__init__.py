@@ -20,8 +20,9 @@ Behavior API without the host session and Zenoh.
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
+
+from swarmactors._lazy import lazy_exports
 
 if TYPE_CHECKING:
     from swarmactors.robot.actor import Robot, run_calls
@@ -46,17 +47,7 @@ _HOME = {
 }
 
 
-def __getattr__(name: str):
-    home = _HOME.get(name)
-    if home is None:
-        raise AttributeError(f"module 'swarmactors.robot' has no attribute {name!r}")
-    value = getattr(importlib.import_module(home), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted([*globals(), *_HOME])
+__getattr__, __dir__ = lazy_exports(__name__, _HOME)
 
 
 __all__ = [
