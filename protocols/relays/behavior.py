@@ -29,8 +29,12 @@ Rules:
 * R4 motion - motion.py (Eqs. 6-8 with the stated reading of Eq. 8's admissible set, RVO by sampling, the
   safety guard); neighbour velocities from the robot's own consecutive sensings; the root stands still;
   free robots stay within d_s of the root and step aside from chain robots.
-* R5 recruiting - with WP prediction the robot linked to the root recruits as soon as that link reaches
-  d_s - v_max dt; without it, only after a REL_NEED from the head.
+* R5 recruiting - with WP prediction every stretched chain robot (link to its parent at d_s - v_max dt) with
+  free neighbours recruits; without it, only after a REL_NEED from the head. When the head sends it is the
+  parameter ``ask``: "stretched" (its own parent link at d_s - v_max dt; it then stands still until the
+  recruit's slack arrives) or "plan" (Sec. IV: "the worker determines the number of links required to reach
+  the target": while the chain holds fewer than n = ceil(d_path / d_s) links, moving on meanwhile; and when
+  stretched, as a fallback).
 * R6 link failure - a parent or child not heard for ``link_fail`` is declared failed. A robot that lost
   its parent moves back along pi (Eq. 6 with d_P = inf) until a robot of its C_local up-list (or the root)
   is within d_s, then takes it as parent; a robot that lost its child acts as a temporary worker (moves
@@ -76,7 +80,9 @@ from protocols.stigmergy.table import Stigmergy
 from swarmactors import Behavior, Context, Frame
 from swarmactors.robot.behavior import is_int, is_num
 
-__all__ = ["BID", "CHAIN", "FREE", "JOIN", "NEED", "NETWORKER", "ROOT", "TASK", "WORKER", "Relays", "valid_plan"]
+ASK = ("stretched", "plan")  # R5 without WP: the head asks when its parent link is at d_s, or while the chain is short
+
+__all__ = ["ASK", "BID", "CHAIN", "FREE", "JOIN", "NEED", "NETWORKER", "ROOT", "TASK", "WORKER", "Relays", "valid_plan"]
 
 
 def valid_plan(v) -> str | None:
@@ -118,7 +124,7 @@ class Relays(Behavior):
                  link_fail: float = 5.0, k: int = 8, wp: bool = False, resolution: float = 0.25,
                  budget: int = 20000, clearance: float = 0.4, area: list | None = None, lookahead: float = 0.5,
                  kind: str = "ground", altitude: float = 0.7, chains_per_target: int = 1, spacing: float = 0.3,
-                 join_time: float | None = None, air: list | None = None):
+                 join_time: float | None = None, air: list | None = None, ask: str = "stretched"):
         self.targets = [[float(c) for c in t] for t in targets]
         self.cn, self.spacing = chains_per_target, spacing  # C_n chains per target, side by side (Sec. III-C)
         self.root, self.at = root, at
@@ -126,6 +132,7 @@ class Relays(Behavior):
         self.times = {"plan": plan_time, "bid": bid_time, "recruit": recruit_time, "forget": forget_time,
                       "fail": link_fail, "join": link_fail if join_time is None else join_time}
         self.k, self.wp, self.res, self.budget, self.clearance = k, wp, resolution, budget, clearance
+        self.ask = ask  # without WP: when the head asks for a robot ("stretched" or "plan", R5)
         self.area, self.lookahead = area, lookahead
         self.kind, self.altitude = kind, altitude  # kind repeats the group's: the context does not tell it
         self.air = air  # [z_lo, z_hi]: plan flights in 3-D within these altitudes (None: at ``altitude`` only)
@@ -199,6 +206,9 @@ class Relays(Behavior):
             return f"area = {a!r} must be [[x0, y0], [x1, y1]] with x0 < x1 and y0 < y1"
         if not isinstance(params.get("wp", False), bool):
             return "wp must be true or false"
+        if params.get("ask", "stretched") not in ASK:
+            return (f"ask = {params.get('ask')!r} must be one of {', '.join(ASK)} "
+                    "(when a head without WP asks for a robot)")
         air = params.get("air")
         if air is not None and not (isinstance(air, list) and len(air) == 2 and all(is_num(z) for z in air)
                                     and 0 <= air[0] < air[1]):
@@ -710,7 +720,7 @@ class Relays(Behavior):
         head = self.child is None
         stretched = self._dist(ctx, self.parent) >= self.ds - self.vmax * ctx.dt
         every = self._ticks(ctx, "recruit")
-        if head and not self.wp and stretched and not self._at_target() and self.parent is not None \
+        if head and not self.wp and self._asks(stretched) and not self._at_target() and self.parent is not None \
                 and ctx.tick - self.need_sent >= every:
             self.need_sent = ctx.tick
             if self.parent == self.root or self._can_recruit(ctx):
@@ -728,6 +738,21 @@ class Relays(Behavior):
         if ctx.tick - self.root_asked >= every:  # the root, where free robots wait, recruits in front of me
             self.root_asked = ctx.tick
             BODIES.send(ctx, self.root, Need(self.chain))
+
+    def _asks(self, stretched: bool) -> bool:
+        """Whether the head (without WP) asks for a robot now (R5, parameter ``ask``).
+
+        "stretched": when its parent link is at d_s (the head then stands still by Eq. 8 until the slack of a
+        recruit reaches it). "plan" (Sec. IV: "the worker robot determines the number of links required to
+        reach the target and elects the necessary networkers"): while the chain holds fewer links (the head's
+        depth) than n = ceil(d_path / d_s) of the plan, whatever its own link, so that the request travels and
+        the recruiter, once stretched, recruits while the head moves on; also when stretched (a path whose
+        straight links fall short of n * d_s).
+        """
+        if stretched or self.ask == "stretched":
+            return stretched
+        n = self.plan.get("n") if self.plan else None
+        return is_int(n) and is_int(self.depth) and self.depth < n
 
     def _open(self, ctx: Context, chain: int, child: int, parent: int) -> None:
         """Open a CBAA slot: a free robot to sit between ``parent`` and ``child`` (one of them is me).

@@ -283,3 +283,45 @@ def test_flying_elections_that_close_together_on_one_robot_elect_again_for_the_h
     assert other.settled[0] == 9 and other.role == FREE and other.fly[1].key == "worker/1/fly1"
     assert other.fly[1].bid_fn(octx) is not None  # a free flying robot bids in the second round
     assert 1 not in other.settled or other.settled[1] == 6  # chain 1 is not settled on robot 9
+
+
+def test_ask_stretched_a_head_short_of_links_but_not_stretched_does_not_ask():
+    """With ask = "stretched" (the default): the head asks only when its own parent link is at d_s."""
+    head, ctx = robot(3, hears_free=False)
+    ctx.position = [3.6, 0.0]  # 0.8 m from its parent: not stretched; the chain has 3 links of n = 6
+    head._recruit(ctx)
+    assert ctx.sent == [] and not head.pending
+
+
+def test_ask_plan_a_head_short_of_links_asks_before_it_is_stretched_and_stops_at_n():
+    """With ask = "plan" (Sec. IV): the head asks while the chain holds fewer than n links, whatever its own link."""
+    head, ctx = robot(3, hears_free=False)
+    head.ask = "plan"
+    ctx.position = [3.6, 0.0]  # not stretched; depth 3 < n = 6
+    head._recruit(ctx)
+    assert ctx.sent == [(2, NEED, {"c": 0})]
+    head, ctx = robot(3, hears_free=False)
+    head.ask, head.depth = "plan", 6  # the chain has its n links: no request until the head is stretched
+    ctx.position = [3.6, 0.0]
+    head._recruit(ctx)
+    assert ctx.sent == []
+    ctx.position = list(X[3])  # stretched: asks as with "stretched" (straight links may fall short of n d_s)
+    head._recruit(ctx)
+    assert ctx.sent == [(2, NEED, {"c": 0})]
+
+
+def test_ask_plan_the_recruiter_holding_the_request_still_waits_until_it_is_stretched():
+    base, ctx = robot(1, hears_free=True)
+    base.ask = "plan"
+    ctx.position = [0.9, 0.0]  # 0.9 m from the root: not stretched
+    base._on_need(ctx, 2, Need(0))
+    base._recruit(ctx)
+    assert not base.pending and not ctx.cast
+    ctx.position = list(X[1])
+    base._recruit(ctx)
+    assert base.pending[0]["parent"] == 0
+
+
+def test_ask_must_be_a_known_value():
+    assert Relays.validate({"targets": [[8.0, 0.0]], "ask": "plan"}) is None
+    assert "ask = 'early'" in Relays.validate({"targets": [[8.0, 0.0]], "ask": "early"})
