@@ -26,6 +26,7 @@ import argparse
 import json
 import math
 import multiprocessing as mp
+import re
 import tempfile
 import time
 from pathlib import Path
@@ -63,12 +64,13 @@ def jittered(n: int, seed: int, spacing: float = 0.55) -> list[list[float]]:
                            for x, y in grid[: n - 1]]
 
 
-def condition(targets: int, obstacle: bool, wp: bool, seed: int, ticks: int) -> dict:
+def condition(targets: int, obstacle: bool, wp: bool, seed: int, ticks: int, ask: str = "stretched") -> dict:
     angles = [2 * math.pi * k / targets for k in range(targets)]
     tg = [[round(RADIUS * math.cos(a), 4), round(RADIUS * math.sin(a), 4)] for a in angles]
     obstacles = [o for a in angles for o in c_shape([5.0 * math.cos(a), 5.0 * math.sin(a)], a)] if obstacle else None
     n = 9 * targets + 4
-    return relays_scenario(n, tg, ticks=ticks, seed=seed, obstacles=obstacles, wp=wp, positions=jittered(n, seed),
+    return relays_scenario(n, tg, ticks=ticks, seed=seed, obstacles=obstacles, wp=wp, ask=ask,
+                           positions=jittered(n, seed),
                            checks=[{"use": "relays.reached", "slack": 100.0}, {"use": "relays.links_within_db"}])
 
 
@@ -90,11 +92,18 @@ def _run(job: dict) -> dict:
                "last_reached_s": max((c["value"] for c in reached if c["value"] is not None), default=None),
                "links_ok": all(c["passed"] for c in r.checks if c["name"] == "relays.links_within_db"),
                "recovery_s": healed[0]["value"] if healed else None,
+               "back_s": _back(healed[0]["detail"]) if healed else None,
                "chain": _chain(reports), "dt": dt}
     at = 1 * dt  # the root writes the targets at tick 1
     if out["all_reached"] and out["last_reached_s"] is not None and longest:
         out["time_factor"] = (out["last_reached_s"] - at) / (longest / 0.5)
     return out
+
+
+def _back(detail: str) -> float | None:
+    """The worker's time back at its target after the (first) kill, from relays.healed's detail."""
+    m = re.search(r"worker back at its target after ([0-9.]+) s", detail or "")
+    return float(m.group(1)) if m else None
 
 
 def _chain(reports: dict) -> list[int]:
@@ -190,34 +199,71 @@ def failures(pool, runs: int) -> list[dict]:
     return out
 
 
+def variant(r: dict) -> str:
+    """A time-factor row's recruiting variant: "WP", or "no WP (stretched)" / "no WP (plan)" by ``ask`` (R5)."""
+    return "WP" if r["wp"] else f"no WP ({r.get('ask') or 'stretched'})"
+
+
 def summarise(results: list[dict]) -> None:
+    """Print the time factor per cell and variant, each variant against WP (Welch), and the failure slope."""
     tf = [r for r in results if r["kind"] == "tf"]
-    for targets in (2, 3, 4):
-        for obstacle in (False, True):
-            cells = {wp: [r.get("time_factor") for r in tf if (r["targets"], r["obstacle"], r["wp"])
-                          == (targets, obstacle, wp)] for wp in (False, True)}
-            if not cells[False]:
+    names = sorted({variant(r) for r in tf})
+    for obstacle in (False, True):
+        for targets in (2, 3, 4, None):  # None: pooled over the number of targets
+            cells = {v: [r.get("time_factor") for r in tf if variant(r) == v and r["obstacle"] == obstacle
+                         and targets in (None, r["targets"])] for v in names}
+            if not any(cells.values()) or (targets is None and len({r["targets"] for r in tf}) < 2):
                 continue
-            m0, h0 = mean_ci(cells[False])
-            m1, h1 = mean_ci(cells[True])
-            d, hd, p = diff_ci(cells[True], cells[False])
-            print(f"T={targets} obstacle={obstacle}: no WP {m0:.3f} ± {h0:.3f}, WP {m1:.3f} ± {h1:.3f}, "
-                  f"WP - no WP = {d:+.3f} ± {hd:.3f} ({100 * d / m0:+.1f} %), p = {p:.3f}; "
-                  f"failed runs {sum(x is None for x in cells[False] + cells[True])}")
+            where = f"T={targets if targets else 'all'} {'C' if obstacle else 'open'}"
+            for v in names:
+                m, h = mean_ci(cells[v])
+                line = f"{where} {v}: {m:.3f} ± {h:.3f} ({sum(x is not None for x in cells[v])}/{len(cells[v])})"
+                if v != "WP" and cells.get("WP"):
+                    d, hd, p = diff_ci(cells["WP"], cells[v])
+                    line += f"; WP - this = {d:+.3f} ± {hd:.3f} ({100 * d / m:+.1f} %), Welch p = {p:.2g}"
+                print(line)
     fl = [r for r in results if r["kind"] == "fail"]
     for f in range(1, 6):
         xs = [r["recovery_s"] for r in fl if r["failed"] == f]
         if xs:
             m, h = mean_ci(xs)
-            print(f"failed {f}: recovery {m:.2f} ± {h:.2f} s over {len([x for x in xs if x is not None])} runs")
+            b, hb = mean_ci([r.get("back_s") for r in fl if r["failed"] == f])
+            print(f"failed {f}: recovery {m:.2f} ± {h:.2f} s over {len([x for x in xs if x is not None])} runs; "
+                  f"worker back at its target {b:.1f} ± {hb:.1f} s")
+    for key in ("recovery_s", "back_s"):
+        fit = slope(fl, key)
+        if fit:
+            print(f"{key}: {fit['slope']:+.2f} ± {fit['half']:.2f} s per failed robot (95 % CI, {fit['n']} runs); "
+                  f"per traversal time ({fit['traversal']:.0f} s): {100 * fit['slope'] / fit['traversal']:+.1f} ± "
+                  f"{100 * fit['half'] / fit['traversal']:.1f} % of the time factor")
+
+
+def slope(rows: list[dict], key: str = "recovery_s") -> dict | None:
+    """Least-squares line of ``key`` against the number of failed robots; slope, its 95 % CI (Student t).
+
+    ``traversal`` is the chain's traversal time, path length / v_max, the time factor's denominator.
+    """
+    from scipy import stats
+
+    pts = [(r["failed"], r[key]) for r in rows if r.get(key) is not None]
+    if len({f for f, _ in pts}) < 2 or len(pts) < 3:
+        return None
+    fit = stats.linregress(*zip(*pts, strict=True))
+    paths = [r["path_m"] for r in rows if r.get("path_m")]
+    return {"slope": fit.slope, "half": stats.t.ppf(0.975, len(pts) - 2) * fit.stderr, "n": len(pts),
+            "intercept": fit.intercept, "traversal": (float(np.mean(paths)) if paths else RADIUS) / 0.5}
 
 
 def sweep_trial(params: dict, *, seed: int, trial: int) -> dict:
-    """One time-factor run of ``fig6.toml``: condition (targets, obstacle, wp), jitter ``trial``."""
+    """One time-factor run of ``fig6.toml``: condition (targets, obstacle, wp, ask), jitter ``trial``.
+
+    ``ask`` (default "stretched") is when a head without WP asks for a robot (R5); it does not act with WP.
+    """
     targets, obstacle, wp = int(params["targets"]), bool(params["obstacle"]), bool(params["wp"])
+    ask = str(params.get("ask", "stretched"))
     ticks = 500 if obstacle else 450
-    return _run({"kind": "tf", "targets": targets, "obstacle": obstacle, "wp": wp, "seed": trial,
-                 "scenario": condition(targets, obstacle, wp, trial, ticks)})
+    return _run({"kind": "tf", "targets": targets, "obstacle": obstacle, "wp": wp, "ask": ask, "seed": trial,
+                 "scenario": condition(targets, obstacle, wp, trial, ticks, ask)})
 
 
 def sweep_failure_trial(params: dict, *, seed: int, trial: int) -> dict:
@@ -226,16 +272,18 @@ def sweep_failure_trial(params: dict, *, seed: int, trial: int) -> dict:
     The chain is built by its own run first (the same run for every f), so a trial is self-contained.
     """
     n, built, f = 14, 330, int(params["failed"])
+    link_fail = float(params.get("link_fail", 5.0))  # the paper's link failure declaration time (Sec. V)
     base = _run({"kind": "base", "seed": trial, "scenario": relays_scenario(
-        n, [[RADIUS, 0.0]], ticks=built, seed=trial, positions=jittered(n, trial), checks=[])})
+        n, [[RADIUS, 0.0]], ticks=built, seed=trial, positions=jittered(n, trial), checks=[], link_fail=link_fail)})
     nets = base["chain"][1:-1]
     if len(nets) < f:
         return {"kind": "fail", "seed": trial, "failed": f, "networkers": len(nets), "recovery_s": None,
                 "skipped": "chain too short"}
     sc = relays_scenario(n, [[RADIUS, 0.0]], ticks=built + 400, seed=trial, positions=jittered(n, trial),
-                         kills=[(built, nets[:f])],
+                         kills=[(built, nets[:f])], link_fail=link_fail,
                          checks=[{"use": "relays.healed"}, {"use": "relays.reached", "slack": 100.0}])
-    return _run({"kind": "fail", "seed": trial, "failed": f, "networkers": len(nets), "scenario": sc})
+    return _run({"kind": "fail", "seed": trial, "failed": f, "networkers": len(nets), "link_fail": link_fail,
+                 "scenario": sc})
 
 
 def sweep_figures(csv_path: Path, out_dir: Path) -> list[Path]:
@@ -258,16 +306,16 @@ def plot(results: list[dict], path: Path = Path("docs/img/relays_fig6.png")) -> 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
     tf = [r for r in results if r["kind"] == "tf"]
     ax = axes[0]
-    for k, (obstacle, wp) in enumerate([(False, False), (False, True), (True, False), (True, True)]):
+    lines = [(obstacle, v) for obstacle in (False, True) for v in sorted({variant(r) for r in tf})]
+    for k, (obstacle, v) in enumerate(lines):
         xs, ms, hs = [], [], []
-        for targets in (2, 3, 4):
-            m, h = mean_ci([r.get("time_factor") for r in tf if (r["targets"], r["obstacle"], r["wp"])
-                            == (targets, obstacle, wp)])
-            xs.append(targets + (k - 1.5) * 0.08)
+        for targets in sorted({r["targets"] for r in tf}):
+            m, h = mean_ci([r.get("time_factor") for r in tf if (r["targets"], r["obstacle"], variant(r))
+                            == (targets, obstacle, v)])
+            xs.append(targets + (k - (len(lines) - 1) / 2) * 0.06)
             ms.append(m)
             hs.append(h)
-        ax.errorbar(xs, ms, yerr=hs, marker="o", capsize=3,
-                    label=f"{'C obstacle' if obstacle else 'open'}, {'WP' if wp else 'no WP'}")
+        ax.errorbar(xs, ms, yerr=hs, marker="o", capsize=3, label=f"{'C obstacle' if obstacle else 'open'}, {v}")
     ax.set_xlabel("targets")
     ax.set_ylabel("time factor (build time / traversal time)")
     ax.set_xticks([2, 3, 4])
