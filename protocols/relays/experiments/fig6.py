@@ -2,7 +2,8 @@
 
 Time factor (middle/top): 2-4 targets on a circle of radius 10 m around the root, with and without a
 C-shaped obstacle on each target's ray (5 m out, its cup open towards the root), with and without WP
-prediction. Time factor = (tick the last worker reaches its target - tick the targets are written) * dt,
+prediction (without it, ``ask`` = "stretched" or "plan": when the head asks for a robot, R5). Time factor =
+(tick the last worker reaches its target - tick the targets are written) * dt,
 divided by the traversal time (the longest planned path / v_max). N = 9 T + 4 robots (9 per chain, 4 spare),
 clustered at the root with a random jitter per run (seed).
 
