@@ -84,7 +84,7 @@ def category(filename: str) -> str | None:
     """The project part a source file belongs to (None: a library, charged to its callers)."""
     f = filename.replace(os.sep, "/")
     root = str(ROOT).replace(os.sep, "/") + "/"
-    if not f.startswith(root):
+    if not f.startswith(root) or "/site-packages/" in f:  # a virtual environment may sit in the checkout
         return None
     rel = f[len(root):]
     if rel.startswith("world/"):
@@ -102,33 +102,34 @@ def shares(stats: pstats.Stats) -> dict[str, float]:
     """Seconds of own time per category; a library function's time goes to its callers' categories.
 
     A function's own time is split over its callers in proportion to the cumulative time each caller spent
-    in it, climbing through library callers until project code (at most 20 levels; the rest is ``other``).
+    in it, climbing through library callers until project code (a recursion's own calls left out).
     """
     raw = stats.stats  # func -> (cc, nc, tt, ct, callers {caller: (cc, nc, tt, ct)})
     memo: dict = {}
 
-    def split(func, depth: int) -> dict[str, float]:
-        """Fractions of func's time per category."""
+    def split(func, stack: set) -> dict[str, float]:
+        """Fractions of func's time per category (callers already on ``stack``, a recursion, are left out)."""
         if func in memo:
             return memo[func]
         cat = category(func[0])
         if cat is not None:
             return {cat: 1.0}
-        callers = raw[func][4] if func in raw else {}
+        callers = {c: v for c, v in (raw[func][4] if func in raw else {}).items() if c not in stack}
         total = sum(v[3] for v in callers.values())
-        if depth > 20 or not callers or total <= 0:
+        if len(stack) > 60 or not callers or total <= 0:
             return {"other": 1.0}
-        memo[func] = {"other": 1.0}  # a cycle back here counts as other
+        stack.add(func)
         out: dict[str, float] = {}
         for caller, v in callers.items():
-            for k, frac in split(caller, depth + 1).items():
+            for k, frac in split(caller, stack).items():
                 out[k] = out.get(k, 0.0) + frac * v[3] / total
+        stack.discard(func)
         memo[func] = out
         return out
 
     seconds = dict.fromkeys(CATEGORIES, 0.0)
     for func, (_cc, _nc, tt, _ct, _callers) in raw.items():
-        for k, frac in split(func, 0).items():
+        for k, frac in split(func, set()).items():
             seconds[k] += tt * frac
     return seconds
 

@@ -11,8 +11,8 @@ cells and walls 1 cell of side ``cell`` metres):
     arena 3: 4 x 3 maze cells (seed 2), cell 281/13 m -> 281 x 216 m (corridors 43 m),  path 256 m, 100 robots
 
 (maze seeds chosen so that three chains fit in the robots: 3 ceil(path / d_s) + 1 <= N; ground robots only,
-unless ``hetero`` = 1: arena 1 with 20 ground and 5 flying robots and a low wall only flying robots cross, see
-``heterogeneous``).
+unless ``hetero`` = 1: 5 of the N robots flying and a low wall only flying robots cross, see ``heterogeneous``
+and ``fence``).
 
 The root stands at the centre of the top-left maze cell, the target at the bottom-right one's; the other
 robots on a 0.5 m grid around the root (jittered by up to 0.1 m per trial). Radio: range Z = 10.5 m (the
@@ -168,7 +168,8 @@ def run_one(arena: int, chains: int, fraction: float, trial: int, ticks: int, he
            "wall_s": round(time.time() - t0, 1), "reached": len(done), "all_reached": all_reached,
            "links_ok": all(c["passed"] for c in r.checks if c["name"] == "relays.links_within_db"),
            "longest_link_m": next((c["value"] for c in r.checks if c["name"] == "relays.links_within_db"), None),
-           "path_m": None if longest is None else round(longest, 2)}
+           "path_m": None if longest is None else round(longest, 2),
+           "reached_s": sorted(done)}  # each chain's first tick with its worker at the target
     if all_reached and longest:
         build = max(done) - DT  # the root writes the target at tick 1
         traversal = longest / LARGE["vmax"]
