@@ -228,7 +228,7 @@ def plot(rows: list[dict], path: Path) -> None:
                        label=None if arena > 1 or hetero else f"C_n = {chains}")
             if rs:
                 ax.scatter([x], [rs[0]["traversal_s"]], color="k", marker="_", s=200)
-    ax.set_xlabel("arena (triangles: arena 1 with 5 flying robots; bars: traversal time)")
+    ax.set_xlabel("arena (triangles: with 5 flying robots; bars: traversal time)")
     ax.set_ylabel("time to build (s)")
     ax.set_title("Fig. 7 top, reduced (ours)")
     ax.legend(fontsize=8)
