@@ -79,6 +79,7 @@ from protocols.stigmergy.table import KINDS as VS_KINDS
 from protocols.stigmergy.table import Stigmergy
 from swarmactors import Behavior, Context, Frame
 from swarmactors.robot.behavior import is_int, is_num
+from swarmactors.robot.inputs import SensedView
 
 ASK = ("stretched", "plan")  # R5 without WP: the head asks when its parent link is at d_s, or while the chain is short
 
@@ -362,7 +363,11 @@ class Relays(Behavior):
 
     # ------------------------------------------------------------------ tick
     def on_tick(self, ctx: Context, sensed) -> None:
-        self.sensed = {s.id: np.array(s.pos[:3 if self.d3 else 2], dtype=float) for s in sensed}
+        k = 3 if self.d3 else 2
+        if isinstance(sensed, SensedView):  # one array for all, a row each (the same numbers, fewer numpy calls)
+            self.sensed = dict(zip(sensed.ids, sensed.positions()[:, :k], strict=True))
+        else:
+            self.sensed = {s.id: np.array(s.pos[:k], dtype=float) for s in sensed}
         self._velocities(ctx)
         self._root_position(ctx)
         if ctx.id == self.root and ctx.tick == self.at:
@@ -396,7 +401,10 @@ class Relays(Behavior):
         if before is None or before[0] != ctx.tick - 1:
             self.vel, self.u_self = {}, None
             return
-        self.vel = {j: (p - before[1][j]) / ctx.dt for j, p in self.sensed.items() if j in before[1]}
+        both = [j for j in self.sensed if j in before[1]]
+        now = np.array([self.sensed[j] for j in both]).reshape(len(both), len(x))
+        was = np.array([before[1][j] for j in both]).reshape(len(both), len(x))
+        self.vel = dict(zip(both, (now - was) / ctx.dt, strict=True))
         self.u_self = (x - before[2]) / ctx.dt
 
     def _root_position(self, ctx: Context) -> None:
@@ -932,10 +940,11 @@ class Relays(Behavior):
             def clear(v):
                 return not m.inside_all(x + v * ctx.dt + np.array(ring), ground=ground).any()
         else:
+            offsets = np.array([np.zeros(2), *ring])
+
             def clear(v):
-                end = x + v * ctx.dt
-                return not any(m.inside([float(p[0]), float(p[1]), z], ground=ground)
-                               for p in [end] + [end + q for q in ring])
+                ends = x + v * ctx.dt + offsets  # the end point and its ring, at the robot's height
+                return not m.inside_all(np.column_stack([ends, np.full(len(ends), z)]), ground=ground).any()
 
         if clear(u):
             return u

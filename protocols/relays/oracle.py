@@ -15,13 +15,19 @@ import math
 from swarmactors import Outcome, Result
 
 
-def _timeline(result: Result):
-    """Yield (tick, positions {id: (x, y)}, statuses {id: {field: value}}) tick by tick (replayed changes)."""
+def _timeline(result: Result, kills: list[int] | None = None):
+    """Yield (tick, positions {id: (x, y)}, statuses {id: {field: value}}) tick by tick (replayed changes).
+
+    ``kills``: a list that receives the ticks with a kill event, in the same pass (what ``_kills`` returns
+    once the pass is over), so a check that needs both reads the trace once.
+    """
     status: dict[int, dict] = {}
     for rec in result.records():
         for rid, fields in rec.get("status", {}).items():
             status.setdefault(int(rid), {}).update(fields)
         pos = {row[0]: tuple(row[1:]) for row in rec.get("pos", [])}  # 3-D in a 3-D world
+        if kills is not None and any("kill" in ev for ev in rec.get("ev", ())):
+            kills.append(rec["t"])
         yield rec["t"], pos, status
 
 
@@ -127,22 +133,50 @@ def connected(result: Result, heal_window: float = 60.0) -> list[Outcome]:
 def links_within_db(result: Result) -> list[Outcome]:
     """No chain link (a robot and its parent, both alive) is ever longer than d_b; time beyond d_s reported."""
     p = _params(result)
-    ds, db = p.get("ds", 1.4), p.get("db", 1.8)
+    db = p.get("db", 1.8)
     dt = result["scenario"]["run"].get("dt", 1.0)
+    worst, first, beyond = _scan(result)["links"]
+    return [Outcome("relays.links_within_db", first is None, round(worst, 6), db,
+                    f"longest chain link {worst:.3f} m (d_b = {db}); link-time beyond d_s + 1 cm = {beyond * dt:.1f} s",
+                    first, op="<=")]
+
+
+def _scan(result: Result, tol: float | None = None) -> dict:
+    """One pass over the trace for ``reached`` and ``links_within_db`` (kept on the result, per ``tol``).
+
+    ``tol`` None: any pass already made (the links do not depend on it), else one with ``_tolerance``.
+    first_reach: chain -> the first tick its worker is within ``tol`` of its target (horizontally); kills:
+    the ticks with a kill event; links: (longest chain link, first tick one exceeds d_b, link-ticks beyond
+    d_s + 1 cm) over every robot with a role of worker or networker and a parent, both with a position.
+    """
+    memo = result.__dict__.setdefault("_relays_scan", {})
+    if tol is None and memo:
+        return next(iter(memo.values()))
+    p = _params(result)
+    tol = _tolerance(p) if tol is None else tol
+    if tol in memo:
+        return memo[tol]
+    cn, targets = _per_target(p), p.get("targets", [])
+    ds, db = p.get("ds", 1.4), p.get("db", 1.8)
+    first_reach: dict[int, int] = {}
+    kills: list[int] = []
     worst, first, beyond = 0.0, None, 0
-    for t, pos, status in _timeline(result):
+    for t, pos, status in _timeline(result, kills):
         for rid, s in status.items():
+            role, c = s.get("role"), s.get("chain")
+            if role == "worker" and is_chain(c, len(targets) * cn) and rid in pos \
+                    and c not in first_reach and math.dist(pos[rid][:2], targets[c // cn][:2]) <= tol:
+                first_reach[c] = t
             par = s.get("parent")
-            if s.get("role") not in ("worker", "networker") or par is None or rid not in pos or par not in pos:
+            if role not in ("worker", "networker") or par is None or rid not in pos or par not in pos:
                 continue
             d = math.dist(pos[rid], pos[par])
             worst = max(worst, d)
             beyond += d > ds + 0.01
             if d > db and first is None:
                 first = t
-    return [Outcome("relays.links_within_db", first is None, round(worst, 6), db,
-                    f"longest chain link {worst:.3f} m (d_b = {db}); link-time beyond d_s + 1 cm = {beyond * dt:.1f} s",
-                    first, op="<=")]
+    memo[tol] = {"first_reach": first_reach, "kills": kills, "links": (worst, first, beyond)}
+    return memo[tol]
 
 
 def reached(result: Result, tol: float | None = None, slack: float = 1.0) -> list[Outcome]:
@@ -159,13 +193,8 @@ def reached(result: Result, tol: float | None = None, slack: float = 1.0) -> lis
     dt = result["scenario"]["run"].get("dt", 1.0)
     reports = result.reports("relays")
     out = []
-    first_reach: dict[int, int] = {}
-    for t, pos, status in _timeline(result):
-        for rid, s in status.items():
-            c = s.get("chain")
-            if s.get("role") == "worker" and is_chain(c, len(targets) * cn) and rid in pos \
-                    and c not in first_reach and math.dist(pos[rid][:2], targets[c // cn][:2]) <= tol:
-                first_reach[c] = t
+    scan = _scan(result, tol)
+    first_reach, kills = scan["first_reach"], scan["kills"]
     for c in range(len(targets) * cn):
         target = targets[c // cn]
         rep = next((r for r in reports.values() if r.get("chain") == c and r.get("role") == "worker"
@@ -184,7 +213,7 @@ def reached(result: Result, tol: float | None = None, slack: float = 1.0) -> lis
         n = math.ceil(dpath / ds) if path else 0
         bid = p.get("bid_time", 10.0)
         bound_s = (p.get("at", 1) * dt + (c + 1) * bid + p.get("plan_time", 2.0)
-                   + n * (bid + ds / v) + dpath / v + 60.0 * len(_kills(result))) * slack
+                   + n * (bid + ds / v) + dpath / v + 60.0 * len(kills)) * slack
         got = first_reach.get(c)
         ok = got is not None and got * dt <= bound_s
         out.append(Outcome("relays.reached", ok, None if got is None else round(got * dt, 3),

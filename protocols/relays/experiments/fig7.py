@@ -11,8 +11,8 @@ cells and walls 1 cell of side ``cell`` metres):
     arena 3: 4 x 3 maze cells (seed 2), cell 281/13 m -> 281 x 216 m (corridors 43 m),  path 256 m, 100 robots
 
 (maze seeds chosen so that three chains fit in the robots: 3 ceil(path / d_s) + 1 <= N; ground robots only,
-unless ``hetero`` = 1: arena 1 with 20 ground and 5 flying robots and a low wall only flying robots cross, see
-``heterogeneous``).
+unless ``hetero`` = 1: 5 of the N robots flying and a low wall only flying robots cross, see ``heterogeneous``
+and ``fence``).
 
 The root stands at the centre of the top-left maze cell, the target at the bottom-right one's; the other
 robots on a 0.5 m grid around the root (jittered by up to 0.1 m per trial). Radio: range Z = 10.5 m (the
@@ -72,16 +72,18 @@ def failures(n: int, fraction: float, start: int, ticks: int, seed: int) -> list
 
 
 def heterogeneous(sc: dict, flying: int = 5, wall_x: tuple[float, float] = (32.3, 33.3), altitude: float = 0.7,
-                  wall_top: float = 0.5) -> dict:
-    """Arena 1 as the paper's Fig. 7 has it: 20 ground and 5 flying robots, a section only flying robots cross.
+                  wall_top: float = 0.5, arena: int = 1) -> dict:
+    """An arena with ``flying`` flying robots and a low wall only flying robots cross (the paper's arena 1 case).
 
-    The generated maze of arena 1 has one corridor to the target (down the left column, then along the bottom
-    row); a wall ``wall_top`` high across that row at x in ``wall_x`` (5.9 m before the target; the airborne
-    part of pi, from ``clearance`` before it, is 8.1 m, less than d_s) stops ground robots, so every chain's
-    worker must be a flying robot (at ``altitude``, above the wall) and the rest of the chain can be ground
-    robots: C_n = 3 chains take 3 of the 5 flying robots. The world becomes 3-D (z from 0 to 2 m); the flying robots are
-    the ``flying`` robots placed farthest from the root, so a ground robot is usually elected first and hands
-    over (Fig. 4).
+    Arena 1 (the paper's 20 ground + 5 flying robots): the generated maze has one corridor to the target (down
+    the left column, then along the bottom row); a wall ``wall_top`` high across that row at x in ``wall_x`` (5.9 m
+    before the target; the airborne part of pi, from ``clearance`` before it, is 8.1 m, less than d_s) stops
+    ground robots, so every chain's worker must be a flying robot (at ``altitude``, above the wall) and the rest of
+    the chain can be ground robots: C_n = 3 chains take 3 of the 5 flying robots. Arenas 2 and 3 (ours: the paper
+    ran them with ground robots only): the same number of flying robots among the N, and the same low wall, 1 m
+    thick and 5.9 m from the target, across every open side of the target's maze cell (``fence``). The world
+    becomes 3-D (z from 0 to 2 m); the flying robots are the ``flying`` robots placed farthest from the root, so
+    a ground robot is usually elected first and hands over (Fig. 4).
     """
     group = sc["robots"][0]
     pos = group["positions"]
@@ -91,10 +93,39 @@ def heterogeneous(sc: dict, flying: int = 5, wall_x: tuple[float, float] = (32.3
     sc["robots"] = [{**common, "positions": [p + [0.0] for p in pos[:cut]], "behaviors": [beh]},
                     {**common, "positions": [p + [altitude] for p in pos[cut:]], "kind": "flying",
                      "altitude": [altitude, altitude], "behaviors": [{**beh, "kind": "flying"}]}]
-    side = ARENAS[1]["cell"] * (ARENAS[1]["cols"] * 3 + 1)
-    sc["world"].update(dims=3, bounds=[[0.0, 0.0, 0.0], [side, side, 2.0]],
-                       obstacles=[{"box": [[wall_x[0], 0.0], [wall_x[1], side]], "z": [0.0, wall_top]}])
+    a = ARENAS[arena]
+    width, height = a["cell"] * (a["cols"] * 3 + 1), a["cell"] * (a["rows"] * 3 + 1)
+    boxes = [[[wall_x[0], 0.0], [wall_x[1], height]]] if arena == 1 else fence(arena)
+    sc["world"].update(dims=3, bounds=[[0.0, 0.0, 0.0], [width, height, 2.0]],
+                       obstacles=[{"box": box, "z": [0.0, wall_top]} for box in boxes])
     return sc
+
+
+def fence(arena: int, gap: float = 5.9, thick: float = 1.0, overlap: float = 0.5) -> list[list[list[float]]]:
+    """The low wall of arenas 2 and 3 (``heterogeneous``): boxes ``thick`` wide, ``gap`` from the target.
+
+    One box across each open side of the target's maze cell (the bottom-right one: its left side, towards the
+    cell before it in the bottom row, and its top side, towards the cell above), spanning the cell's room; when
+    both sides are open the two boxes meet at the corner (gap + thick from the target on both axes), so no
+    ground path reaches the target. A closed side's end runs ``overlap`` into the maze wall.
+    """
+    from swarmactors.runs.maps import maze
+
+    a = ARENAS[arena]
+    plan = maze(a["cols"], a["rows"], seed=a["maze_seed"])
+    cell, c, r = a["cell"], a["cols"] - 1, a["rows"] - 1
+    h = len(plan)
+    x0, y1 = (1 + 3 * c) * cell, (h - 1 - 3 * r) * cell  # the room: grid columns 3c+1..3c+2, rows 3r+1..3r+2
+    x1, y0 = x0 + 2 * cell, y1 - 2 * cell
+    tx, ty = (x0 + x1) / 2, (y0 + y1) / 2
+    left, top = plan[1 + 3 * r][3 * c] == ".", plan[3 * r][1 + 3 * c] == "."
+    near, far = gap, gap + thick
+    boxes = []
+    if top:
+        boxes.append([[tx - far if left else x0 - overlap, ty + near], [x1 + overlap, ty + far]])
+    if left:
+        boxes.append([[tx - far, y0 - overlap], [tx - near, ty + far if top else y1 + overlap]])
+    return boxes
 
 
 def scenario(arena: int, chains: int, fraction: float, trial: int, ticks: int, hetero: bool = False) -> dict:
@@ -111,9 +142,7 @@ def scenario(arena: int, chains: int, fraction: float, trial: int, ticks: int, h
     if kills:
         sc["events"] = [{"at": at, "kill": ids} for at, ids in kills]
     if hetero:
-        if arena != 1:
-            raise ValueError(f"hetero = 1 is arena 1's case (the paper's 20 ground + 5 flying), not arena {arena}")
-        sc = heterogeneous(sc)
+        sc = heterogeneous(sc, arena=arena)
     return sc
 
 
@@ -139,7 +168,8 @@ def run_one(arena: int, chains: int, fraction: float, trial: int, ticks: int, he
            "wall_s": round(time.time() - t0, 1), "reached": len(done), "all_reached": all_reached,
            "links_ok": all(c["passed"] for c in r.checks if c["name"] == "relays.links_within_db"),
            "longest_link_m": next((c["value"] for c in r.checks if c["name"] == "relays.links_within_db"), None),
-           "path_m": None if longest is None else round(longest, 2)}
+           "path_m": None if longest is None else round(longest, 2),
+           "reached_s": sorted(done)}  # each chain's first tick with its worker at the target
     if all_reached and longest:
         build = max(done) - DT  # the root writes the target at tick 1
         traversal = longest / LARGE["vmax"]
@@ -198,7 +228,7 @@ def plot(rows: list[dict], path: Path) -> None:
                        label=None if arena > 1 or hetero else f"C_n = {chains}")
             if rs:
                 ax.scatter([x], [rs[0]["traversal_s"]], color="k", marker="_", s=200)
-    ax.set_xlabel("arena (triangles: arena 1 with 5 flying robots; bars: traversal time)")
+    ax.set_xlabel("arena (triangles: with 5 flying robots; bars: traversal time)")
     ax.set_ylabel("time to build (s)")
     ax.set_title("Fig. 7 top, reduced (ours)")
     ax.legend(fontsize=8)
