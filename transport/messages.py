@@ -283,10 +283,6 @@ class Inputs(msgspec.Struct, tag="in", forbid_unknown_fields=True, omit_defaults
                                                        sat.tolist(), iptr.tolist(), refs.tolist())
         return cols
 
-    def frame_counts(self) -> list[int]:
-        """How many robots' inboxes hold each frame of ``frames``."""
-        return np.bincount(self.__dict__["_cols"][6], minlength=len(self.frames)).tolist()
-
     @property
     def robots(self) -> list[RobotIn]:
         """One ``RobotIn`` per robot (built once, on first use)."""

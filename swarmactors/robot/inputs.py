@@ -72,60 +72,37 @@ def with_rab(frame: Frame, rab: tuple[float, float]) -> Frame:
     return _replace(frame, rab=rab)
 
 
-def decode_copies(body: bytes, n: int) -> list[Any]:
-    """``n`` independent decodings of ``body`` in one call; ``body`` must hold exactly one msgpack value.
-
-    The copies are decoded from one msgpack array of ``n`` times ``body``: the same values, no object shared.
-    """
-    if n < 16:
-        head = bytes((0x90 | n,))
-    elif n < 0x10000:
-        head = b"\xdc" + n.to_bytes(2, "big")
-    else:
-        head = b"\xdd" + n.to_bytes(4, "big")
-    return _body_decoder.decode(head + body * n)
-
-
 class FrameTable:
     """A downlink's frames, decoded once per host and handed out so that robots share nothing.
 
     A body is decoded once; an immutable one (a number, string, bytes, None) is shared by every receiver,
-    a list or map is decoded again for each further receiver, so no robot sees another's changes. With
-    ``counts`` (how many receivers each frame has here) a frame's further copies are decoded in one call
-    when its first receiver takes it (``decode_copies``); a receiver beyond its count decodes its own.
+    a list or map is decoded again for each further receiver, so no robot sees another's changes.
     """
 
-    __slots__ = ("_frames", "_given", "_again", "_counts", "_spare")
+    __slots__ = ("_frames", "_given", "_again")
 
-    def __init__(self, frames: list[FrameIn], counts: list[int] | None = None):
+    def __init__(self, frames: list[FrameIn]):
         self._frames = frames
         self._given: list[Any] = [_UNSEEN] * len(frames)  # the first receiver's Frame (None: undecodable)
         self._again: list[bytes | None] = [None] * len(frames)  # the body to decode for further receivers
-        self._counts = counts
-        self._spare: list[list[Any] | None] = [None] * len(frames)  # further receivers' bodies, decoded
 
     def _first(self, k: int) -> Frame | None:
         f = self._frames[k]
         frame = self._given[k] = decode_body(f)
         if frame is not None and isinstance(frame.body, (list, dict)):
             self._again[k] = f.body
-            if self._counts is not None and self._counts[k] > 1:
-                self._spare[k] = decode_copies(f.body, self._counts[k] - 1)
         return frame
-
-    def _copy(self, frame: Frame, k: int) -> Frame:
-        spare = self._spare[k]
-        return _replace(frame, body=spare.pop() if spare else _body_decoder.decode(self._again[k]))
 
     def frame(self, k: int) -> Frame | None:
         frame = self._given[k]
         if frame is _UNSEEN:
             return self._first(k)
-        return frame if self._again[k] is None else self._copy(frame, k)
+        again = self._again[k]
+        return frame if again is None else _replace(frame, body=_body_decoder.decode(again))
 
     def inbox(self, refs: list[int]) -> tuple[list[Frame], int]:
         """One robot's frames (its slice of the table, in order) and how many had a body that does not decode."""
-        given, again, spare = self._given, self._again, self._spare
+        given, again = self._given, self._again
         out: list[Frame] = []
         bad = 0
         for k in refs:
@@ -133,8 +110,7 @@ class FrameTable:
             if frame is _UNSEEN:
                 frame = self._first(k)
             elif again[k] is not None:
-                s = spare[k]
-                frame = _replace(frame, body=s.pop() if s else _body_decoder.decode(again[k]))
+                frame = _replace(frame, body=_body_decoder.decode(again[k]))
             if frame is None:
                 bad += 1
             else:

@@ -117,7 +117,7 @@ class RobotRuntime:
         poses, sptr, sids, sat, iptr, refs = (cols.poses, cols.sensed_ptr, cols.sensed_ids, cols.sensed_at,
                                               cols.inbox_ptr, cols.refs)
         known, rays, rab = msg.known, msg.rays, msg.rab
-        frames = FrameTable(msg.frames, msg.frame_counts())
+        frames = FrameTable(msg.frames)
         dims = msg.dims
         robots = self.robots
         pending: dict[asyncio.Task, Robot] = {}
