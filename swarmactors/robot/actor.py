@@ -108,10 +108,11 @@ class Robot:
                     yield r
         if frames and self._batch_hooks:
             yield from self.batch_calls()
-        for fn in ctx._due_timers():
-            r = fn()
-            if r is not None and inspect.isawaitable(r):
-                yield r
+        if ctx._timers:
+            for fn in ctx._due_timers():
+                r = fn()
+                if r is not None and inspect.isawaitable(r):
+                    yield r
         for h in self._tick_hooks:
             r = h(ctx, sensed)
             if r is not None and inspect.isawaitable(r):
