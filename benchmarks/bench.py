@@ -70,12 +70,27 @@ QUICK = {
     "realtime_k": [0],
     "k2_profile": False,
 }
+FOCUS = {  # the N = 1000 targets only: lockstep K = 0 and 2, the floor at K = 2, raw Zenoh; no realtime
+    "repeats": 5,
+    "n": [1000],
+    "k": [0, 2],
+    "ticks": {1000: 40},
+    "floor_n": 1000,
+    "floor_k": [2],
+    "profile_ticks": 30,
+    "raw_s": 3.0,
+    "realtime_s": 4.0,
+    "realtime_k": [],
+    "k2_profile": False,
+}
 CHART = HERE.parent / "docs" / "img" / "bench_scaling.png"
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="N = 10 and 1000, few ticks, one repeat (under a minute)")
+    ap.add_argument("--focus", action="store_true",
+                    help="N = 1000 only: lockstep K = 0 and 2, the floor at K = 2, raw Zenoh (no realtime)")
     ap.add_argument("--out", type=Path, default=HERE / "results.json", help="JSON results (default %(default)s)")
     ap.add_argument("--chart", type=Path, default=None,
                     help=f"the chart of robot-ticks/s against N (default: {CHART} for a full run, beside --out "
@@ -95,17 +110,18 @@ def main(argv: list[str] | None = None) -> int:
     if args.redraw:
         console.log(f"wrote {report.chart(json.loads(args.redraw.read_text()), args.chart or CHART)}")
         return 0
-    cfg = dict(QUICK if args.quick else FULL)
+    cfg = dict(QUICK if args.quick else FOCUS if args.focus else FULL)
     if args.repeats:
         cfg["repeats"] = args.repeats
-    chart = args.chart or (args.out.with_suffix(".png") if args.quick else CHART)
+    chart = args.chart or (args.out.with_suffix(".png") if args.quick or args.focus else CHART)
     if args.wait_quiet > 0:
         deadline = time.monotonic() + args.wait_quiet
         while os.getloadavg()[0] >= 0.5 and time.monotonic() < deadline:
             console.log(f"waiting for a quiet machine (load average {os.getloadavg()[0]:.2f})")
             time.sleep(15)
     t_start = time.perf_counter()
-    res: dict = {"config": {"mode": "quick" if args.quick else "full", **cfg}, "targets_def": report.TARGETS}
+    mode = "quick" if args.quick else "focus" if args.focus else "full"
+    res: dict = {"config": {"mode": mode, **cfg}, "targets_def": report.TARGETS}
     res["machine"] = measure.machine()
     if res["machine"]["loadavg_start"][0] > 0.5:
         console.log(f"[yellow]load average {res['machine']['loadavg_start'][0]:.2f} before starting: other work on "

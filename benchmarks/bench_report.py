@@ -11,10 +11,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 TARGETS = {
-    "robot_ticks_per_s_n1000": 50_000,  # median, better of K = 0 and K = 2
+    "robot_ticks_per_s_n1000": 100_000,  # median, better of K = 0 and K = 2
     "robot_ticks_per_s_n10000": 30_000,
     "cost_ratio_n10000_vs_n100": 1.5,
-    "emulator_over_raw_deliveries": 0.5,  # default callback
+    "emulator_over_raw_deliveries": 1.0,  # default callback
     "realtime_p99_error_ms": 2.0,
 }
 

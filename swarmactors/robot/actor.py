@@ -108,10 +108,11 @@ class Robot:
                     yield r
         if frames and self._batch_hooks:
             yield from self.batch_calls()
-        for fn in ctx._due_timers():
-            r = fn()
-            if r is not None and inspect.isawaitable(r):
-                yield r
+        if ctx._timers:
+            for fn in ctx._due_timers():
+                r = fn()
+                if r is not None and inspect.isawaitable(r):
+                    yield r
         for h in self._tick_hooks:
             r = h(ctx, sensed)
             if r is not None and inspect.isawaitable(r):
@@ -119,14 +120,20 @@ class Robot:
 
     def frame_calls(self, frames: list[Frame]) -> Iterator[Any]:
         """Realtime: the hooks for one delivery batch: each frame, then ``on_batch`` (``on_start`` first)."""
-        yield from self.start_calls()
+        if not self.started:
+            yield from self.start_calls()
         ctx = self.ctx
+        by_kind = self._by_kind
         for frame in frames:
-            for h in self.handlers(frame.kind):
+            hs = by_kind.get(frame.kind)
+            if hs is None:
+                hs = self.handlers(frame.kind)
+            for h in hs:
                 r = h(ctx, frame)
                 if r is not None and inspect.isawaitable(r):
                     yield r
-        yield from self.batch_calls()
+        if self._batch_hooks:
+            yield from self.batch_calls()
 
     def timer_calls(self, fn) -> Iterator[Any]:
         """Realtime: one due timer."""

@@ -208,7 +208,7 @@ class Context:
 
     def broadcast(self, kind: str, body: Any = None, exclude: tuple[int, ...] | list[int] = ()) -> None:
         """Radio ``body`` to every robot in range, except the ids in ``exclude``."""
-        self._queue(None, kind, body, [int(x) for x in exclude])
+        self._queue(None, kind, body, [int(x) for x in exclude] if exclude else [])
 
     def send(self, dst: int, kind: str, body: Any = None) -> None:
         """Radio ``body`` to robot ``dst``; delivered only if ``dst`` is in range."""

@@ -17,7 +17,7 @@ from typing import Any, Protocol
 from swarmactors.robot.actor import Robot, run_calls
 from swarmactors.robot.inputs import FrameTable, SensedView, decode_body, with_rab
 from swarmactors.robot.tasks import TaskSet
-from transport.messages import Deliveries, FrameIn, Inputs, RobotDescr, RobotOut, RunInfo
+from transport.messages import Deliveries, Inputs, RobotDescr, RobotOut, RunInfo
 
 log = logging.getLogger(__name__)
 
@@ -265,11 +265,12 @@ class RobotRuntime:
         # on_frame does not wait for the whole batch's decoding. ``ctx.now`` is read per robot. Every copy's
         # body is decoded for its robot alone, so no robot sees another's changes.
         robots = self.robots
-        by_robot: dict[int, list[tuple[FrameIn, list[float] | None]]] = {}
+        # each robot's copies in order: a FrameIn, or (FrameIn, its range and bearing) under rab
+        by_robot: dict[int, list[Any]] = {}
         for msg, dst, refs, idx in groups:
             table, rab = msg.frames, msg.rab
             for i in idx:
-                copy = (table[refs[i]], None if rab is None else rab[i])
+                copy = table[refs[i]] if rab is None or rab[i] is None else (table[refs[i]], rab[i])
                 got = by_robot.get(dst[i])
                 if got is None:
                     by_robot[dst[i]] = [copy]
@@ -280,7 +281,7 @@ class RobotRuntime:
             robot = robots.get(rid)
             if robot is None or not robot.alive:
                 continue
-            frames = [decode_body(f, rb) for f, rb in copies]
+            frames = [decode_body(c) if type(c) is not tuple else decode_body(*c) for c in copies]
             if None in frames:
                 robot.bad_bodies += frames.count(None)
                 frames = [f for f in frames if f is not None]

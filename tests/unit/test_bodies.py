@@ -6,6 +6,8 @@ from collections import Counter
 
 import msgspec
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from swarmactors import Frame
 from swarmactors.robot.bodies import UNSET, Bodies, Body, Num, UnsetType, cause_of
@@ -112,3 +114,29 @@ def test_numpy_floats_pack_as_the_plain_floats_msgpack_made_of_them():
     import numpy as np
 
     assert pack(BODIES.encode(Ping(n=1, at=np.float64(0.1) * 3))) == pack({"n": 1, "t": np.float64(0.1) * 3})
+
+
+_scalars = st.none() | st.booleans() | st.integers(-5, 5) | st.floats(allow_nan=False) | st.text(max_size=3)
+_values = st.recursive(_scalars, lambda inner: st.lists(inner, max_size=3)
+                       | st.dictionaries(st.sampled_from("ntab"), inner, max_size=3), max_leaves=6)
+_pings = st.builds(lambda n, t: {"n": n, "t": t}, st.integers(-2, 3), st.integers() | st.floats())
+_pairs = st.builds(lambda a, b: [a, b], st.integers(-2, 2) | st.text(max_size=1), st.lists(st.integers(-2, 2),
+                                                                                            max_size=2))
+_bodies = _values | _pings | _pairs
+
+
+class _Shaped(Bodies):
+    """A subclass with shapes of its own: a bare int is a Pair with no list."""
+
+    def decode_body(self, kind, body, counts=None):
+        return super().decode_body(kind, [body, []] if isinstance(body, int) and kind == "PAIR" else body, counts)
+
+
+@settings(max_examples=200, deadline=None)
+@given(kind=st.sampled_from(["PING", "PAIR", "PONG"]), body=_bodies)
+def test_decode_is_decode_body_of_the_frames_kind_and_body(kind, body):
+    for bodies in (BODIES, _Shaped(Ping, Pair)):
+        got, want = Counter(), Counter()
+        assert bodies.decode(Frame(1, kind, body, 1, 0.0), got) == bodies.decode_body(kind, body, want)
+        assert got == want
+    assert _Shaped(Ping, Pair).decode(Frame(1, "PAIR", 4, 1, 0.0)) == Pair(4, [])  # the subclass's shape

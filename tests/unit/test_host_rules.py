@@ -51,6 +51,11 @@ class Recorder(Behavior):
             ctx.broadcast("K", [ctx.id])
 
 
+class Starter(Recorder):
+    def on_start(self, ctx):
+        LOG.append(("start", ctx.id))
+
+
 class Crashes(Behavior):
     def on_tick(self, ctx, sensed):
         raise RuntimeError("boom")
@@ -62,7 +67,7 @@ class Plain(Behavior):
 
 def _allow() -> set[str]:
     mod = types.ModuleType("host_rules_mod")
-    mod.Recorder, mod.Crashes, mod.Plain = Recorder, Crashes, Plain
+    mod.Recorder, mod.Crashes, mod.Plain, mod.Starter = Recorder, Crashes, Plain, Starter
     sys.modules["host_rules_mod"] = mod
     LOG.clear()
     return {"host_rules_mod"}
@@ -196,6 +201,22 @@ def test_realtime_copies_due_are_handed_over_at_once_the_others_per_due_time():
         LOG.clear()
         rt.deliver([item for _, item in timer.items])  # stopped: nothing more is handed over
         assert LOG == [] and sent == []  # Recorder sends nothing on frames
+        await rt.close()
+
+    asyncio.run(main())
+
+
+def test_realtime_batches_call_on_start_once_before_the_first_frame_and_on_batch_after_each():
+    async def main():
+        rt = RobotRuntime(REALTIME, _allow())
+        rt.adopt([_descr(0, "Starter"), _descr(1, "Plain")])
+        rt.start_realtime(lambda rows: None, _Timer())
+        now = time.time()
+        frames = [FrameIn(5, "K", 1, pack(1), 0.5), FrameIn(6, "N", 1, pack(2), 0.5)]
+        for _ in range(2):
+            rt.take_deliveries(Deliveries.of(frames, dst=[0, 0, 1], refs=[0, 1, 0], due=[now - 1] * 3))
+        assert LOG == [("start", 0), ("frame", 0, 5, 1, None), ("batch", 0), ("frame", 0, 5, 1, None), ("batch", 0)]
+        assert rt.robots[1].started and rt.robots[0].bad_bodies == 0  # a kind nobody owns: no hook, not bad
         await rt.close()
 
     asyncio.run(main())
