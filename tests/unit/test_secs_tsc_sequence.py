@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+import msgspec
 import pytest
 
 from protocols.secs import rules
@@ -111,3 +112,30 @@ def test_audit_finds_a_cut_and_judges_the_cover_from_true_positions():
     assert row["first_reach"] == 0.2 and row["hold"] == 0.3 and row["hold_from"] == 0.3 and row["on_time"]
     assert row["covered"] == 0.5  # ticks 3-5, 7 and 9
     assert not sq.audit(res, {"a": 0.4})["tasks"][0]["on_time"]
+
+
+def test_hold_velocity_stops_at_the_task_and_walks_back_past_it():
+    """rules.hold_velocity (opt-in hold_tasks): short → Lennard-Jones, within the band → still, past → to parent."""
+    lj, parent = (0.1, 0.05), (2.0, math.pi)  # the parent 2 m away, behind (towards −x)
+    assert rules.hold_velocity(3.0, 5.0, 0.25, parent, lj, 0.15) == lj
+    assert rules.hold_velocity(4.8, 5.0, 0.25, parent, lj, 0.15) == (0.0, 0.0)
+    assert rules.hold_velocity(5.25, 5.0, 0.25, parent, lj, 0.15) == (0.0, 0.0)
+    vx, vy = rules.hold_velocity(5.3, 5.0, 0.25, parent, lj, 0.5)  # 0.3 m past: back at 0.3 m/s
+    assert vx == pytest.approx(-0.3) and vy == pytest.approx(0.0, abs=1e-12)
+    vx, _ = rules.hold_velocity(5.3, 5.0, 0.25, parent, lj, 0.15)  # capped at v_max
+    assert vx == pytest.approx(-0.15)
+    assert rules.hold_velocity(9.0, 5.0, 0.25, None, lj, 0.15) == (0.0, 0.0)  # no parent known: hold
+
+
+def test_hold_tasks_is_opt_in_and_its_field_only_on_the_wire_when_set():
+    from protocols.secs.behavior import SECS
+    from protocols.secs.messages import Target
+
+    assert SECS().hold_tasks is False
+    assert SECS.validate({"hold_tasks": "yes"}) == "hold_tasks must be true or false, got 'yes'"
+    assert SECS.validate({"hold_tasks": True}) is None
+    plain = Target.of({"a": 1, "T": 0.5, "al": True, "d": 2.0})
+    assert "r" not in msgspec.json.decode(msgspec.json.encode(plain))  # default runs: frames unchanged
+    held = msgspec.json.decode(msgspec.json.encode(Target.of({"a": -1, "T": [0.5], "al": True, "d": 0.0,
+                                                              "ph": 1, "p": [1.0], "r": [3.2]})))
+    assert held["r"] == [3.2]

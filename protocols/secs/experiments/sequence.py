@@ -56,6 +56,7 @@ FLOCK_SPEED = 0.1  # m/s
 TOL = 0.5  # m: a task is covered while a backbone robot is this close
 RANGE = 3.0  # m: the radio range of the §IV-A set-up
 TOLERANCE = 0.25  # a measured value is "within" at ±25 % of the compared one
+VARIANTS = {"base": {}, "hold": {"hold_tasks": True}}  # the controller's defaults; its opt-in task hold
 PAPER_TABLE2_D05 = {1: (0.8, 44.3), 5: (9.0, 31.6)}  # Table II, D = 0.5: (TCTM, TDSM) seconds, CPLEX 12.7
 
 
@@ -204,8 +205,14 @@ def audit(result, needs: dict[str, float], tol: float = TOL) -> dict:
 # ------------------------------------------------------------------------------------------ one instance
 def run_instance(cls: int, idx: int, *, seed: int = 1, scale: float = SCALE, time_unit: float = TIME_UNIT,
                  margin: float = MARGIN, flock_speed: float = FLOCK_SPEED, time_limit: float = 60.0,
-                 seconds: float | None = None, out: Path | None = None) -> dict:
-    """Schedule one §IV-B instance, run it through the emulator, audit it: the record the JSON keeps."""
+                 seconds: float | None = None, out: Path | None = None, variant: str = "base") -> dict:
+    """Schedule one §IV-B instance, run it through the emulator, audit it: the record the JSON keeps.
+
+    ``variant`` "base" is the controller's defaults; "hold" turns on its opt-in ``hold_tasks`` (the master
+    floods each task's distance, an aligned robot stops there: rules.hold_velocity).
+    """
+    if variant not in VARIANTS:
+        raise ValueError(f"variant {variant!r}: must be one of {sorted(VARIANTS)}")
     import swarmactors
     from protocols.secs.scenarios import sequence_scenario
     from protocols.tsc.schedule import completion_time
@@ -215,16 +222,16 @@ def run_instance(cls: int, idx: int, *, seed: int = 1, scale: float = SCALE, tim
     needs = {t.id: t.duration * time_unit for t in inst.tasks}  # δ_t in seconds: the oracle's, not a robot's
     run_seq = with_margin(seq, margin / time_unit)
     sc = sequence_scenario(run_seq, scale=scale, time_unit=time_unit, flock_speed=flock_speed, seed=seed,
-                           seconds=seconds, name=f"secs-seq-c{cls}-i{idx}")
+                           seconds=seconds, name=f"secs-seq-c{cls}-i{idx}", **VARIANTS[variant])
     t0 = time.time()
     with tempfile.TemporaryDirectory() as tmp:
-        result = swarmactors.run(sc, out=Path(out or tmp) / f"c{cls}-i{idx}")
+        result = swarmactors.run(sc, out=Path(out or tmp) / f"c{cls}-i{idx}-{variant}")
         wall = time.time() - t0
         rep = audit(result, needs)
         checks = {c["name"]: {"passed": c["passed"], "value": c.get("value")} for c in result.checks}
         paths = _paths(result)
     split = makespan_split(rep["phases"], planned, margin)
-    rec = {"class": cls, "index": idx, "density": DENSITY, "seed": seed, "robots": len(inst.robots),
+    rec = {"class": cls, "index": idx, "variant": variant, "density": DENSITY, "seed": seed, "robots": len(inst.robots),
            "tasks": len(inst.tasks), "side_m": round(inst.arena[0][1] * scale, 3), "scale": scale,
            "time_unit": time_unit, "margin": margin, "flock_speed": flock_speed,
            "tctm": {"status": tctm.status, "seconds": round(tctm.seconds, 3)},
@@ -283,56 +290,75 @@ def plot(records: list[dict], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    n = len(records)
-    fig, axes = plt.subplots(2, n, figsize=(4.6 * n, 8.2), squeeze=False,
-                             gridspec_kw={"height_ratios": [3, 1.4]})
+    keys = list(dict.fromkeys((r["class"], r["index"]) for r in records))
+    variants = list(dict.fromkeys(r["variant"] for r in records))
+    by = {(r["class"], r["index"], r["variant"]): r for r in records}
+    n = len(keys)
+    fig, axes = plt.subplots(1 + len(variants), n, figsize=(4.2 * n, 5.2 + 2.0 * len(variants)), squeeze=False,
+                             gridspec_kw={"height_ratios": [3] + [1.4] * len(variants)})
     colours = {"flocking": "#8da0cb", "secs": "#fc8d62", "rendezvous": "#66c2a5"}
-    for k, rec in enumerate(records):
-        ax, tl = axes[0][k], axes[1][k]
-        for rid, pts in rec["paths"].items():
-            xs, ys = [p[1] for p in pts], [p[2] for p in pts]
-            ax.plot(xs, ys, lw=1.6 if rid == "0" else 0.6, color="k" if rid == "0" else "0.6", zorder=2 if rid == "0"
-                    else 1)
-        for s, slot in enumerate(rec["schedule"]["slots"], start=1):
-            dx, dy = slot["deployment"]
-            ax.plot(dx, dy, "s", color="C%d" % s, ms=8, zorder=3)
-            ax.annotate(f"Θ{s}", (dx, dy), xytext=(4, 4), textcoords="offset points", fontsize=8)
-            for t in slot["tasks"]:
-                ok = next(r["on_time"] for r in rec["audit"]["tasks"] if r["task"] == t["id"])
-                ax.plot(*t["position"], "o" if ok else "x", color="C%d" % s, ms=9, mfc="none", mew=2, zorder=3)
-                ax.annotate(t["id"], t["position"], xytext=(4, -10), textcoords="offset points", fontsize=8)
-        ax.set_aspect("equal")
-        v = rec["verdict"]
-        ax.set_title(f"class {rec['class']} #{rec['index']}: {'connected' if v['connected'] else 'DISCONNECTED'}, "
-                     f"{sum(r['on_time'] for r in rec['audit']['tasks'])}/{len(rec['audit']['tasks'])} on time",
-                     fontsize=9)
-        ax.set_xlabel("x (m)")
-        ax.set_ylabel("y (m)")
-        t0 = 0.0
-        for p in rec["audit"]["phases"]:
-            for stage in ("flocking", "secs", "rendezvous"):
-                if p[stage] > 0:
-                    tl.barh(0, p[stage], left=t0, color=colours[stage], edgecolor="k", lw=0.3)
-                    t0 += p[stage]
-        for j, r in enumerate(rec["audit"]["tasks"], start=1):
-            p = rec["audit"]["phases"][r["slot"] - 1]
-            if r["first_reach"] is not None and p["erupt_start"] is not None:
-                a = p["erupt_start"] + r["first_reach"]
-                b = p["erupt_end"] if p["erupt_end"] is not None else t0
-                tl.barh(j, b - a, left=a, color="0.75")
-                tl.barh(j, r["hold"], left=r["hold_from"], color="0.3" if r["on_time"] else "r", height=0.4)
-        tl.axvline(rec["makespan"]["planned"], color="k", ls="--", lw=1)
-        tl.set_yticks(range(len(rec["audit"]["tasks"]) + 1),
-                      ["phase"] + [r["task"] for r in rec["audit"]["tasks"]], fontsize=8)
-        tl.set_xlabel("time (s); dashed: the TSC's Λ")
+    for k, key in enumerate(keys):
+        rec = by.get((*key, variants[-1])) or next(r for r in records if (r["class"], r["index"]) == key)
+        _paths_panel(axes[0][k], rec)
+        for v, name in enumerate(variants, start=1):
+            if (*key, name) in by:
+                _timeline_panel(axes[v][k], by[(*key, name)], colours)
+            else:
+                axes[v][k].set_axis_off()
     handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in colours.values()]
     fig.legend(handles, ["flock", "erupt (Δ + margin)", "rendez-vous"], loc="lower center", ncol=3, fontsize=8)
-    fig.suptitle("TSC-driven SECS sequence on §IV-B instances (D = 0.5, |N| = 8, |T| = 4): true paths, phases, "
-                 "task cover (dark: longest unbroken cover)", fontsize=10)
-    fig.tight_layout(rect=(0, 0.04, 1, 0.97))
+    fig.suptitle("TSC-driven SECS sequence on §IV-B instances (D = 0.5, |N| = 8, |T| = 4). Top: true paths "
+                 f"({variants[-1]}); below: phases and task cover per variant (dark: longest unbroken cover, red: "
+                 "short of δ_t)", fontsize=9)
+    fig.tight_layout(rect=(0, 0.03, 1, 0.97))
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=100)
     plt.close(fig)
+
+
+def _paths_panel(ax, rec: dict) -> None:
+    for rid, pts in rec["paths"].items():
+        xs, ys = [p[1] for p in pts], [p[2] for p in pts]
+        ax.plot(xs, ys, lw=1.6 if rid == "0" else 0.6, color="k" if rid == "0" else "0.6", zorder=2 if rid == "0"
+                else 1)
+    for s, slot in enumerate(rec["schedule"]["slots"], start=1):
+        dx, dy = slot["deployment"]
+        ax.plot(dx, dy, "s", color="C%d" % s, ms=8, zorder=3)
+        ax.annotate(f"Θ{s}", (dx, dy), xytext=(4, 4), textcoords="offset points", fontsize=8)
+        for t in slot["tasks"]:
+            ok = next(r["on_time"] for r in rec["audit"]["tasks"] if r["task"] == t["id"])
+            ax.plot(*t["position"], "o" if ok else "x", color="C%d" % s, ms=9, mfc="none", mew=2, zorder=3)
+            ax.annotate(t["id"], t["position"], xytext=(4, -10), textcoords="offset points", fontsize=8)
+    ax.set_aspect("equal")
+    v = rec["verdict"]
+    ax.set_title(f"class {rec['class']} #{rec['index']}: {'connected' if v['connected'] else 'DISCONNECTED'}, "
+                 f"{sum(r['on_time'] for r in rec['audit']['tasks'])}/{len(rec['audit']['tasks'])} on time",
+                 fontsize=9)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+
+
+def _timeline_panel(tl, rec: dict, colours: dict) -> None:
+    t0 = 0.0
+    for p in rec["audit"]["phases"]:
+        for stage in ("flocking", "secs", "rendezvous"):
+            if p[stage] > 0:
+                tl.barh(0, p[stage], left=t0, color=colours[stage], edgecolor="k", lw=0.3)
+                t0 += p[stage]
+    for j, r in enumerate(rec["audit"]["tasks"], start=1):
+        p = rec["audit"]["phases"][r["slot"] - 1]
+        if r["first_reach"] is not None and p["erupt_start"] is not None:
+            a = p["erupt_start"] + r["first_reach"]
+            b = p["erupt_end"] if p["erupt_end"] is not None else t0
+            tl.barh(j, b - a, left=a, color="0.75")
+            tl.barh(j, r["hold"], left=r["hold_from"], color="0.3" if r["on_time"] else "r", height=0.4)
+    tl.axvline(rec["makespan"]["planned"], color="k", ls="--", lw=1)
+    tl.set_yticks(range(len(rec["audit"]["tasks"]) + 1),
+                  ["phase"] + [r["task"] for r in rec["audit"]["tasks"]], fontsize=8)
+    tl.set_xlabel("time (s); dashed: the TSC's Λ")
+    on = sum(r["on_time"] for r in rec["audit"]["tasks"])
+    tl.set_title(f"{rec['variant']}: {on}/{len(rec['audit']['tasks'])} on time, makespan "
+                 f"{rec['makespan']['makespan']} s", fontsize=8)
 
 
 # ------------------------------------------------------------------------------------------ CLI
@@ -353,7 +379,9 @@ def main(argv: list[str] | None = None) -> int:
     """Run the instances, write the JSON after each, draw the plot; print one line per instance."""
     ap = argparse.ArgumentParser(prog="python -m protocols.secs.experiments.sequence",
                                  description=(__doc__ or "").split("\n")[0])
-    ap.add_argument("--instances", type=_pairs, default=list(INSTANCES), help="CLASS:INDEX,... (default 1:0,1:1,1:2,5:0,5:2)")
+    ap.add_argument("--instances", type=_pairs, default=list(INSTANCES),
+                    help="CLASS:INDEX,... (default 1:0,1:1,1:2,5:0,5:2)")
+    ap.add_argument("--variants", default="base,hold", help="base (defaults) and/or hold (hold_tasks), comma-separated")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--scale", type=float, default=SCALE, help="metres per Γ")
     ap.add_argument("--time-unit", type=float, default=TIME_UNIT, help="seconds per duration unit")
@@ -368,16 +396,20 @@ def main(argv: list[str] | None = None) -> int:
             ap.error(f"--{key.replace('_', '-')} = {v!r}: must be a positive number")
     if not (math.isfinite(args.margin) and args.margin >= 0):
         ap.error(f"--margin = {args.margin!r}: must be a number >= 0")
+    variants = args.variants.split(",")
+    bad = [v for v in variants if v not in VARIANTS]
+    if bad:
+        ap.error(f"--variants: {bad[0]!r} is not one of {sorted(VARIANTS)}")
     records = []
-    for cls, idx in args.instances:
+    for (cls, idx), variant in [(ci, v) for ci in args.instances for v in variants]:
         rec = run_instance(cls, idx, seed=args.seed, scale=args.scale, time_unit=args.time_unit,
-                           margin=args.margin, flock_speed=args.flock_speed)
+                           margin=args.margin, flock_speed=args.flock_speed, variant=variant)
         rec["load"] = [round(x, 2) for x in os.getloadavg()]
         records.append(rec)
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(json.dumps({"records": records}, indent=1) + "\n")
         m, v = rec["makespan"], rec["verdict"]
-        print(f"class {cls} #{idx}: connected {v['connected']}, on time "
+        print(f"class {cls} #{idx} {variant}: connected {v['connected']}, on time "
               f"{sum(t['on_time'] for t in rec['audit']['tasks'])}/{len(rec['audit']['tasks'])}, makespan "
               f"{m['makespan']} s vs Λ {m['planned']} s, wall {rec['wall_s']} s, load {rec['load']}", flush=True)
     plot(records, args.img)
