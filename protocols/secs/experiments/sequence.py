@@ -214,6 +214,7 @@ def run_instance(cls: int, idx: int, *, seed: int = 1, scale: float = SCALE, tim
     if variant not in VARIANTS:
         raise ValueError(f"variant {variant!r}: must be one of {sorted(VARIANTS)}")
     import swarmactors
+    from protocols.secs import oracle
     from protocols.secs.scenarios import sequence_scenario
     from protocols.tsc.schedule import completion_time
 
@@ -228,6 +229,7 @@ def run_instance(cls: int, idx: int, *, seed: int = 1, scale: float = SCALE, tim
         result = swarmactors.run(sc, out=Path(out or tmp) / f"c{cls}-i{idx}-{variant}")
         wall = time.time() - t0
         rep = audit(result, needs)
+        spread = [row["spread"] for row in oracle.slot_times(result)]
         checks = {c["name"]: {"passed": c["passed"], "value": c.get("value")} for c in result.checks}
         paths = _paths(result)
     split = makespan_split(rep["phases"], planned, margin)
@@ -241,7 +243,8 @@ def run_instance(cls: int, idx: int, *, seed: int = 1, scale: float = SCALE, tim
                       "tasks": [t["id"] for t in s["tasks"]]} for s in run_seq["slots"]],
            "task_distance_m": {t["id"]: round(math.dist(s["deployment"], t["position"]) * scale, 3)
                                for s in run_seq["slots"] for t in s["tasks"]},
-           "wall_s": round(wall, 1), "checks": checks, "audit": rep, "makespan": split, "paths": paths,
+           "wall_s": round(wall, 1), "spread_m": spread, "checks": checks, "audit": rep, "makespan": split,
+           "paths": paths,
            "schedule": sc["robots"][0]["behaviors"][0]["schedule"]}
     rec["verdict"] = verdict(rec)
     return rec
@@ -389,6 +392,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--flock-speed", type=float, default=FLOCK_SPEED)
     ap.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "sequence.json")
     ap.add_argument("--img", type=Path, default=ROOT / "docs" / "img" / "secs_sequence.png")
+    ap.add_argument("--runs", type=Path, default=None, help="keep each run's output under this directory")
     args = ap.parse_args(argv)
     for key in ("scale", "time_unit", "flock_speed"):
         v = getattr(args, key)
@@ -403,7 +407,7 @@ def main(argv: list[str] | None = None) -> int:
     records = []
     for (cls, idx), variant in [(ci, v) for ci in args.instances for v in variants]:
         rec = run_instance(cls, idx, seed=args.seed, scale=args.scale, time_unit=args.time_unit,
-                           margin=args.margin, flock_speed=args.flock_speed, variant=variant)
+                           margin=args.margin, flock_speed=args.flock_speed, variant=variant, out=args.runs)
         rec["load"] = [round(x, 2) for x in os.getloadavg()]
         records.append(rec)
         args.out.parent.mkdir(parents=True, exist_ok=True)
