@@ -411,7 +411,7 @@ def main(argv: list[str] | None = None) -> int:
         rec["load"] = [round(x, 2) for x in os.getloadavg()]
         records.append(rec)
         args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(json.dumps({"records": records}, indent=1) + "\n")
+        args.out.write_text(json.dumps({"records": records}) + "\n")
         m, v = rec["makespan"], rec["verdict"]
         print(f"class {cls} #{idx} {variant}: connected {v['connected']}, on time "
               f"{sum(t['on_time'] for t in rec['audit']['tasks'])}/{len(rec['audit']['tasks'])}, makespan "
