@@ -26,7 +26,11 @@ radio graph (networkx, range 3 m both ways) must be connected and hold a path fr
 from the start to the end of the last slot's eruption, beside the TSC's planned Λ × ``TIME_UNIT``; the excess
 is split into the flights, the rendez-vous and the margins, read from the master's stage log.
 
-    python -m protocols.secs.experiments.sequence [--instances 1:0,1:1,1:2,5:0,5:2] [--out JSON] [--img PNG]
+    python -m protocols.secs.experiments.sequence [--instances 1:0,1:1,1:2,5:0,5:2] [--variants base,hold]
+        [--margin 60] [--out JSON] [--img PNG] [--runs DIR]
+
+Variants: ``base`` is the controller's defaults; ``hold`` its opt-in ``hold_tasks`` (the master also floods each
+task's distance and an aligned robot stops there, rules.hold_velocity). One seed per run (``--seed``).
 
 The paper's §IV-B reports the MILP alone (Table II: solve times; Figs. 7-8: costs), not a schedule executed by
 the controller, so the only §IV-B numbers to set beside ours are Table II's solve times for the same class at
