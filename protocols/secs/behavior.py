@@ -34,6 +34,7 @@ from swarmactors.robot.bodies import UNSET
 
 STALE = 5  # ticks after which a neighbour's last message is not used
 CLOSE = 0.4  # m: a circling robot also feels the Lennard-Jones push of robots closer than this
+HOLD_BAND = 0.25  # m: with hold_tasks, an aligned robot this close to its task's distance stops
 
 
 def _finite(x) -> bool:
@@ -115,7 +116,8 @@ class SECS(Behavior):
     ``align_release`` (alignment lost beyond that many ``align_tol``, default 2; rules.still_aligned),
     ``turn_rate`` (rad/s: differential-drive bodies, rules.unicycle_step), ``walk_back`` (a robot that loses
     its alignment out of the master's sight walks back to it, rules.walk_back), ``strip`` (m: also aligned
-    within that distance of the informer's arm line, rules.in_strip).
+    within that distance of the informer's arm line, rules.in_strip), ``hold_tasks`` (scheduled runs: the
+    master floods each task's distance and an aligned robot stops there, rules.hold_velocity).
     """
 
     name = "secs"
@@ -128,7 +130,8 @@ class SECS(Behavior):
                  delta_rv: float = 90.0, flock_at: float | None = None, flock_to: list | None = None,
                  flock_speed: float = 0.05, task_prefix: str = "task", schedule: dict | None = None,
                  settle_max: float = 60.0, arrive_tol: float = 0.1, align_release: float = 2.0,
-                 turn_rate: float | None = None, walk_back: bool = False, strip: float | None = None):
+                 turn_rate: float | None = None, walk_back: bool = False, strip: float | None = None,
+                 hold_tasks: bool = False):
         self.master, self.delta, self.epsilon, self.delta_close = master, delta, epsilon, delta_close
         self.v_max, self.align_tol = v_max, align_tol
         self.rendezvous_at, self.delta_rv = rendezvous_at, delta_rv
@@ -138,6 +141,8 @@ class SECS(Behavior):
         # opt-in variants, OFF by default (docs/protocols/secs.md, "Why our arm differs from Table I"):
         # hysteresis factor, differential-drive turn rate (rad/s), walk back to the master, strip half-width (m)
         self.align_release, self.turn_rate, self.walk_back, self.strip = align_release, turn_rate, walk_back, strip
+        self.hold_tasks = hold_tasks  # opt-in, OFF by default: arms stop at their task's distance
+        self.reach: list | None = None  # each task's distance from the master (hold_tasks only)
         self.walking = False
         self.body_heading = 0.0
         self.ph: int | None = None  # the phase followed (scheduled runs only)
@@ -176,8 +181,9 @@ class SECS(Behavior):
         for key in ("turn_rate", "strip"):
             if params.get(key) is not None and not (_finite(params[key]) and params[key] > 0):
                 return f"{key} must be a positive number or absent, got {params[key]!r}"
-        if "walk_back" in params and not isinstance(params["walk_back"], bool):
-            return f"walk_back must be true or false, got {params['walk_back']!r}"
+        for key in ("walk_back", "hold_tasks"):
+            if key in params and not isinstance(params[key], bool):
+                return f"{key} must be true or false, got {params[key]!r}"
         if params.get("schedule") is not None:
             problem = schedule_problem(params["schedule"])
             if problem:
@@ -316,6 +322,8 @@ class SECS(Behavior):
             body["T"] = [rules.wrap(math.atan2(p[1] - y, p[0] - x)) for p in tasks]
             self.probs = rules.arm_probabilities([math.hypot(p[0] - x, p[1] - y) for p in tasks])
             body["p"] = self.probs
+            if self.hold_tasks:
+                body["r"] = [round(math.hypot(p[0] - x, p[1] - y), 6) for p in tasks]
         else:
             self.rv = self.delta_rv
             body["rv"] = self.delta_rv
@@ -327,6 +335,7 @@ class SECS(Behavior):
         if best is None or (self.ph is not None and best["ph"] <= self.ph):
             return
         self.ph, self.arm, self.probs, self.rv = best["ph"], None, None, None
+        self.reach = list(best["r"]) if self.hold_tasks and best.get("r") else None
         self.target, self.aligned, self.informer = None, False, None
         if best.get("rv") is not None:
             self.mode, self.rv = "rendezvous", float(best["rv"])
@@ -361,6 +370,8 @@ class SECS(Behavior):
             body["ph"] = self.ph
         if self.probs is not None:
             body["p"] = self.probs
+        if self.reach is not None:
+            body["r"] = self.reach
         if self.mode == "rendezvous":
             body["rv"] = self.rv
             self.target, self.aligned = None, False
@@ -421,6 +432,11 @@ class SECS(Behavior):
             if self.first_aligned is None:
                 self.first_aligned = ctx.tick
             self.v = rules.lj_velocity(list(nb.values()), self.delta, self.v_max, self.epsilon)
+            if self.reach is not None and 0 <= arm < len(self.reach):  # opt-in: hold the task, not pass it
+                up = [(b["d"] + nb[k][0], k) for k, b in fresh.items() if b.get("d") is not None and k in nb]
+                parent = nb[min(up)[1]] if up else None
+                self.v = rules.hold_velocity(self.dist, float(self.reach[arm]), HOLD_BAND, parent, self.v,
+                                             self.v_max)
         elif self.walking:  # back towards the master along the swarm: to the parent
             self.realigned += bool(was)
             up = [(b["d"] + nb[k][0], k) for k, b in fresh.items() if b.get("d") is not None and k in nb]

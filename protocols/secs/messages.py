@@ -1,9 +1,10 @@
 """SECS's frame bodies (``SECS_T``, ``SECS_M``), typed; the keys and their order are the wire's.
 
 A robot's ``SECS_T`` holds the keys its role sends, in this order: the master's ``a, T, al, d, p, [rv], [fl],
-v``, the scheduled master's ``a, T, al, d, ph, fl | p | rv, v``, a backbone robot's ``a, T, al, d, [ph], [p],
-[rv | fl], v``; a key a robot does not send is ``UNSET``. The angles' range ([0, 2π), finite) depends on the
-role, so the behaviour checks them after decoding (``protocols.secs.behavior.parse_t``), counted as ``angle``.
+v``, the scheduled master's ``a, T, al, d, ph, fl | p [r] | rv, v``, a backbone robot's ``a, T, al, d, [ph],
+[p], [rv | fl], [r], v`` (``r`` only with the opt-in ``hold_tasks``); a key a robot does not send is ``UNSET``.
+The angles' range ([0, 2π), finite) depends on the role, so the behaviour checks them after decoding
+(``protocols.secs.behavior.parse_t``), counted as ``angle``.
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ class Target(Body, kw_only=True):
     probs: list[Probability] | UnsetType = field(default=UNSET, name="p")  # the arms' probabilities
     rv: Positive | UnsetType = field(default=UNSET, name="rv")  # the rendez-vous δ
     flock: Any = field(default=UNSET, name="fl")  # flocking (1)
+    reach: list[NonNeg] | UnsetType = field(default=UNSET, name="r")  # opt-in hold_tasks: each task's distance
     v: tuple[Finite, Finite] | UnsetType = UNSET  # its velocity in its own frame (none: at rest)
 
     @classmethod

@@ -263,3 +263,22 @@ def in_strip(offset: float, distance: float, half_width: float) -> bool:
     is ahead of its informer (|offset| < π/2) and within ``half_width`` m of the informer's arm line.
     """
     return abs(offset) < math.pi / 2 and abs(distance * math.sin(offset)) <= half_width
+
+
+def hold_velocity(dist: float, reach: float, band: float, parent: tuple[float, float] | None,
+                  v_lj: Sequence[float], vmax: float) -> tuple[float, float]:
+    """An aligned robot of an arm whose task lies ``reach`` m from the master (opt-in ``hold_tasks``, §III-C).
+
+    §III-C has the eruption last the task's duration: the prominence must hold the task, but SECS
+    (§III-B-5) only pushes robots along a direction, so the arm's tip passes the task and goes on. Here the
+    master also floods each task's distance, and a robot compares it with its own distance to the master
+    along the swarm (``dist``): short of ``reach`` − ``band`` it follows Lennard-Jones (``v_lj``) as before;
+    within ``band`` of it, it stops (holds the task); beyond ``reach`` + ``band`` it walks back towards its
+    ``parent`` (distance, bearing) at the overshoot's speed, capped at ``vmax``.
+    """
+    if dist < reach - band:
+        return v_lj[0], v_lj[1]
+    if dist <= reach + band or parent is None:
+        return 0.0, 0.0
+    d, b = parent
+    return clip(((dist - reach) * math.cos(b), (dist - reach) * math.sin(b)), vmax) if d > 0 else (0.0, 0.0)
