@@ -42,6 +42,6 @@ FIGURES = [
      "title": "maze arenas, C_n = 1-3 chains, random failures F", "results": "results/fig7.csv",
      "plot": "protocols.relays.experiments:replot_fig7", "images": ["relays_fig7.png"],
      "sweep": "protocols/relays/experiments/fig7.toml",
-     "docs": "protocols/relays.md#fig-7-reduced-maze-arenas-c_n-13-chains-random-failures",
+     "docs": "protocols/relays.md#fig-7-reduced-maze-arenas-c_n--13-chains-random-failures",
      "repetitions": "35 runs a cell"},
 ]
