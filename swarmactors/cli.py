@@ -29,6 +29,7 @@ from swarmactors.runs.launcher import new_run_id, private_endpoints, run_dir, ru
 from swarmactors.runs.progress import RunProgress, crash_tracebacks, summary_table
 from swarmactors.runs.scenario import ScenarioError
 from swarmactors.tools import export as export_cli
+from swarmactors.tools import figures as figures_cli
 from swarmactors.tools import newproject
 from transport import Endpoints, Keys, Security, ensure_files, lease_settings
 from transport.auth import RUN_SECRET_ENV
@@ -168,6 +169,7 @@ def build_parser() -> argparse.ArgumentParser:
     _family_commands(sub)  # the families' own subcommands (TSC's schedule, ...)
     export_cli.add_parser(sub)  # swarmactors export RUN
     newproject.add_parser(sub)  # swarmactors new NAME
+    figures_cli.add_parser(sub)  # swarmactors figures [--plot|--run] [ID...]
     schema = sub.add_parser("schema", help="print the JSON Schema of a scenario file, for editors that complete and "
                                            "check TOML (docs/scenarios.md)")
     schema.add_argument("--out", type=Path, help="write it to this file instead of standard output")
@@ -300,6 +302,8 @@ def _main(args) -> int:
             return EXIT_OK
         if args.command in ("export", "new"):
             return (export_cli if args.command == "export" else newproject).command(args)
+        if args.command == "figures":
+            return figures_cli.command(args)
         if args.command == "sweep":
             scenario_file(args.scenario)
         if args.command == "view":

@@ -788,6 +788,28 @@ def plot_loss(data: dict, path: Path, repeat2: dict | None = None, agree2: dict 
     plt.close(fig)
 
 
+def replot_messages(results: Path, out_dir: Path) -> list[Path]:
+    """The messages figure re-drawn from the saved ``paper.json``."""
+    path = Path(out_dir) / "biconnectivity-messages.png"
+    plot_messages(json.loads(Path(results).read_text())["messages"], path)
+    return [path]
+
+
+def replot_coverage(results: Path, out_dir: Path) -> list[Path]:
+    """The coverage figure (oracle-level experiments) re-drawn from the saved ``paper.json``."""
+    path = Path(out_dir) / "biconnectivity-coverage.png"
+    plot_coverage(json.loads(Path(results).read_text())["coverage"], path)
+    return [path]
+
+
+def replot_loss(results: Path, out_dir: Path) -> list[Path]:
+    """The check under loss re-drawn from the saved ``paper.json``."""
+    data = json.loads(Path(results).read_text())
+    path = Path(out_dir) / "biconnectivity-loss.png"
+    plot_loss(data["loss"], path, data.get("loss_repeat2"), data.get("loss_agree2"))
+    return [path]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="fewer graphs, seeds and runs")

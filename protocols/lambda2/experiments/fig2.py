@@ -355,6 +355,13 @@ def sweep_figures(csv_path: Path, out_dir: Path) -> list[Path]:
     return [out / "fig2.json", out / "lambda2-fig2.png", out / "lambda2-error.png"]
 
 
+def replot(results: Path, out_dir: Path) -> list[Path]:
+    """Re-draw both figures from a saved results file (the script's ``fig2.json``) into ``out_dir``."""
+    rows = json.loads(Path(results).read_text())["runs"]
+    plot(rows, summarise(rows), Path(out_dir))
+    return [Path(out_dir) / "lambda2-fig2.png", Path(out_dir) / "lambda2-error.png"]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--jobs", type=int, default=2)

@@ -228,6 +228,35 @@ def main_figures(csv_path: Path, out_dir: Path) -> list[Path]:
     return [out / "main.json", *sorted(out.glob("roles-*.png"))]
 
 
+def _saved(results: Path, key: str) -> list[dict]:
+    rows = json.loads(Path(results).read_text())[key]["rows"]
+    for r in rows:  # JSON keys are strings; the plots index robots by int
+        if "cpu_s" in r:
+            r["cpu_s"] = {int(k): v for k, v in r["cpu_s"].items()}
+    return rows
+
+
+def replot_prelim(results: Path, out_dir: Path) -> list[Path]:
+    """Figs. 4-5 re-drawn from the saved ``paper.json`` (Fig. 3, a snapshot of one run, only by ``--replot``)."""
+    plot_prelim(_saved(results, "preliminary"), Path(out_dir), None)
+    return [Path(out_dir) / "roles-fig4-aat-cost.png", Path(out_dir) / "roles-fig5-lambda2.png"]
+
+
+def replot_main(results: Path, out_dir: Path) -> list[Path]:
+    """Figs. 7-11 and Fig. 7 under both witness sets, re-drawn from the saved ``paper.json``.
+
+    Fig. 6 (snapshots of one run) is drawn only by ``--replot``, which runs it again.
+    """
+    out = Path(out_dir)
+    main_rows = _saved(results, "main")
+    plot_main(main_rows, out)
+    paths = [out / f"roles-{n}.png" for n in ("fig7-disconnections", "fig8-per-robot", "fig9-per-role",
+                                              "fig10-11-cost-messages")]
+    if "witnesses_all" in json.loads(Path(results).read_text()):
+        paths.append(plot_fig7_witnesses(main_rows, _saved(results, "witnesses_all"), out))
+    return paths
+
+
 # ================================================================== plots
 def _plt():
     import matplotlib

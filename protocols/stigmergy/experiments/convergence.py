@@ -262,6 +262,11 @@ def plots(data: dict, img: Path) -> list[Path]:
     return paths
 
 
+def replot(results: Path, out_dir: Path) -> list[Path]:
+    """The figure re-drawn from the saved ``convergence.json``."""
+    return plots(json.loads(Path(results).read_text()), Path(out_dir))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="a few cases only (a smoke test of the script)")

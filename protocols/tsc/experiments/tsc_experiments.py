@@ -265,6 +265,20 @@ def sweep_figures(csv_path: Path, out_dir: Path) -> list[Path]:
     return [out / "table2.json", *paths]
 
 
+def replot(results: Path, out_dir: Path) -> list[Path]:
+    """Table II as curves and Figs. 7-8 re-drawn from the saved ``tsc.json``.
+
+    Fig. 6 (one schedule, solved again) is drawn only by a run.
+    """
+    data = json.loads(Path(results).read_text())
+    out = Path(out_dir)
+    paths = [out / "tsc-times.png", out / "tsc-dislocation.png", out / "tsc-arms.png"]
+    plot_times(data["table2"], paths[0], float(data["time_limit_s"]))
+    plot_pairs(data["instances"], "dislocation", paths[1], "Fig. 7: dislocation Σ|Θ^s − Θ^{s−1}|₁ (TDSM reduces it)")
+    plot_pairs(data["instances"], "arm_cost", paths[2], "Fig. 8: arm cost Σ (Γ/Ω) w (no improvement)")
+    return paths
+
+
 def markdown_tables(data: dict) -> str:
     """Table II as docs/protocols/tsc.md prints it (ours · the paper's per cell), from a written ``--out`` JSON."""
     agg, limit, per_cell = data["table2"], data["time_limit_s"], data["per_cell"]
