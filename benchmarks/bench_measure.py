@@ -394,7 +394,7 @@ def beacon_body_size() -> int:
 
 
 # --------------------------------------------------------------------------- realtime
-REALTIME_DT, REALTIME_C = 0.05, 0.01  # the realtime runs' tick and radio latency c (issue 22)
+REALTIME_DT, REALTIME_C = 0.05, 0.01  # the realtime runs' tick and radio latency c
 
 
 def realtime_scenario(n: int, seconds: float, behavior: str = PROBE, params: str = "") -> dict:

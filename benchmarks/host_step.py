@@ -76,7 +76,7 @@ def build_inputs(n: int, ticks: int, idle: bool = False) -> tuple[list[bytes], l
     use = "idle_behavior:Idle" if idle else "beacon"
     descr = [RobotDescr(i, [*plain[i], 0.0], [{"use": use}], "ground", 0.75, 0.75, 1.0) for i in range(n)]
     out = []
-    columns = hasattr(Inputs, "from_rows")  # the inputs as columns (issue 21) or as one RobotIn per robot
+    columns = hasattr(Inputs, "from_rows")  # the inputs as columns or as one RobotIn per robot
     for t in range(ticks):
         body = pack([float(t - 1), b"\x00" * 8])
         table = [FrameIn(s, "BEACON", t, body, float(t - 1)) for s in range(n)] if t and not idle else []

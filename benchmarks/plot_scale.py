@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Time to draw ``swarm.png`` as the swarm grows (issue 26).
+"""Time to draw ``swarm.png`` as the swarm grows.
 
     python benchmarks/plot_scale.py [--sizes 50 500 2000 10000] [--old-sizes 50 500] [--old FILE]
 
@@ -7,7 +7,7 @@ Robots are placed uniformly at random in a square sized for a mean degree of abo
 the pairs within range (a k-d tree, as the world computes them); a categorical status field (``role``, four
 values) colours them. Timed: ``draw_swarm`` from figure creation to the PNG on disk (median of ``--repeat``
 runs), separately the link computation, and ``plot_run`` end to end (the radio graph from a one-tick trace
-with ``Result.graph_at``, then the drawing). ``--old FILE`` also times the drawing code before issue 26 (one
+with ``Result.graph_at``, then the drawing). ``--old FILE`` also times the earlier drawing code (one
 ``plot`` call per link, one ``annotate`` per robot), given as a copy of that ``plots.py``'s ``plot_run`` loop.
 Nothing is asserted; results go to stdout and ``--json``.
 """
@@ -45,7 +45,7 @@ def links(xy: np.ndarray) -> list[tuple[int, int]]:
 
 
 def old_draw(path: Path, pos: dict, edges: list, values: dict) -> None:
-    """The drawing loop of swarmactors/tools/plots.py before issue 26 (numeric colour, one artist per link/label)."""
+    """The earlier drawing loop of swarmactors/tools/plots.py (numeric colour, one artist per link/label)."""
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7, 6.5), dpi=110)

@@ -8,7 +8,7 @@ on the children's PYTHONPATH), so one script measures before and after a change 
 Each step runs in a fresh process and prints its peak resident set size (``ru_maxrss``) and wall time:
 
 * ``baseline``: the imports and ``Result.load`` only;
-* ``whole trace``: ``Result.trace`` (every tick record as Python objects, what every reader did before issue 28);
+* ``whole trace``: ``Result.trace`` (every tick record as Python objects, the earlier readers' way);
 * the pictures as ``swarmactors run`` draws them (``swarm.png``, charts, ``trajectories.png``);
 * ``checks``: the scenario's own ``[[checks]]`` (``launcher.judge``, as ``swarmactors run`` does), and
   ``secs.connected`` (a radio graph at every tick, from the trace alone);

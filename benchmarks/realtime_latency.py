@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""How far realtime deliveries land from the radio's latency c (issue 22).
+"""How far realtime deliveries land from the radio's latency c.
 
     python benchmarks/realtime_latency.py [--seconds 6] [--repeats 3] [--big] [--tree A=/path --tree B=/path]
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""A long realtime run: is the resident memory of the world and of the hosts flat (issue 22, last bullet)?
+"""A long realtime run: is the resident memory of the world and of the hosts flat?
 
     python benchmarks/realtime_soak.py [--seconds 600] [--processes 2] [--every 5]
 

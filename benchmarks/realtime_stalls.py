@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Where do a long realtime run's late deliveries come from (issue 22)?
+"""Where do a long realtime run's late deliveries come from?
 
     SWARMACTORS_RT_STAMPS=1 python benchmarks/realtime_stalls.py [--seconds 120] [--processes 2]
 

@@ -47,7 +47,7 @@ CASES = {  # family: (skew case, loss case, realtime case or None)
     "cbaa": ("cbaa/rgg-15-s1-tasks-8", "cbaa/rgg-15-s1-tasks-8", "cbaa/rgg-10-s2-realtime-loss-0.1"),
 }
 # variants: a family's cases with behaviour parameters changed (name: (family, parameters))
-VARIANTS = {"flooding-remaining": ("flooding", {"lifetime": "remaining"})}  # F1r: remaining lifetime, issue 23
+VARIANTS = {"flooding-remaining": ("flooding", {"lifetime": "remaining"})}  # F1r: remaining lifetime
 for _name, (_fam, _) in VARIANTS.items():
     CASES[_name] = CASES[_fam]
 GRIDS = {

@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Resident memory of a long, large lockstep run (issue 21, "Memory"): is it flat after warm-up?
+"""Resident memory of a long, large lockstep run: is it flat after warm-up?
 
     python benchmarks/scale_memory.py [--n 10000] [--ticks 1000] [--processes 2] [--trace off summary full]
                                       [--every 2] [--out benchmarks/results/scale_memory.json]
