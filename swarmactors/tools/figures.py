@@ -110,8 +110,34 @@ def _figure(family: str, package_dir: Path, raw: object, where: str) -> Figure:
                   script=tuple(script), trials=raw.get("trials"), repetitions=raw.get("repetitions", ""))
 
 
-def figures(packages: dict[str, str] | None = None) -> dict[str, Figure]:
-    """Every declared figure by id, in family order. A family without an experiments package declares none."""
+def checkout_root(start: Path | None = None) -> Path | None:
+    """The source checkout the figures' files live in, found from ``start`` (default: the current directory).
+
+    The first of ``start`` and its parents holding ``protocols/`` and ``docs/``. Saved results, sweep files and
+    docs/img are part of the checkout, not of an installed package, so a non-editable install finds them only here.
+    """
+    here = (start or Path.cwd()).resolve()
+    for d in (here, *here.parents):
+        if (d / "protocols").is_dir() and (d / "docs").is_dir():
+            return d
+    return None
+
+
+def _package_dir(package: str, module_file: str, root: Path | None) -> Path:
+    """The experiments package's folder in the checkout when it has one, else where the module was imported from."""
+    if root is not None:
+        candidate = root.joinpath(*package.split("."))
+        if (candidate / "__init__.py").is_file():
+            return candidate.resolve()
+    return Path(module_file).resolve().parent
+
+
+def figures(packages: dict[str, str] | None = None, root: Path | None = None) -> dict[str, Figure]:
+    """Every declared figure by id, in family order. A family without an experiments package declares none.
+
+    Paths resolve in ``root`` (default: the checkout around the current directory, `checkout_root`).
+    """
+    root = root if root is not None else checkout_root()
     out: dict[str, Figure] = {}
     for family, package in (packages or _experiments_packages()).items():
         try:
@@ -126,7 +152,7 @@ def figures(packages: dict[str, str] | None = None) -> dict[str, Figure]:
         where = f"{package}.FIGURES"
         if not isinstance(declared, (list, tuple)):
             raise FigureError(f"{where} must be a list of dicts, not {type(declared).__name__}")
-        package_dir = Path(mod.__file__).resolve().parent
+        package_dir = _package_dir(package, mod.__file__, root)
         for raw in declared:
             fig = _figure(family, package_dir, raw, where)
             if fig.id in out:

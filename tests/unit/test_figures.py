@@ -14,7 +14,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 @pytest.fixture(scope="module")
 def known():
-    return fg.figures()
+    return fg.figures(root=REPO)
 
 
 def test_every_family_with_experiments_declares_figures_and_their_saved_results_exist(known):
@@ -88,3 +88,13 @@ def test_cli_lists_and_rejects_unknown_ids(capsys):
     assert main(["figures", "--command", "lambda2-fig2", "--trials", "0"]) == 2
     assert main(["figures", "--command", "lambda2-fig2", "--trials", "2"]) == 0
     assert "sweep" in capsys.readouterr().out
+
+
+def test_figure_files_resolve_in_the_checkout_not_in_an_installed_package(tmp_path):
+    installed = tmp_path / "site-packages" / "protocols" / "lambda2" / "experiments" / "__init__.py"
+    assert fg.checkout_root(REPO / "docs" / "img") == REPO
+    assert fg.checkout_root(tmp_path) is None
+    in_checkout = fg._package_dir("protocols.lambda2.experiments", str(installed), REPO)
+    assert in_checkout == REPO / "protocols" / "lambda2" / "experiments"
+    assert fg._package_dir("protocols.lambda2.experiments", str(installed), None) == installed.parent
+    assert fg._package_dir("protocols.lambda2.experiments", str(installed), tmp_path) == installed.parent
