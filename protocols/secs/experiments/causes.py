@@ -8,7 +8,7 @@ the arm's reach along the task's ray, the latency to each Table I column, every 
 how many robots are aligned at the end, and the core (backbone robots within the master's 3 m range).
 
     python -m protocols.secs.experiments.causes [--sizes 5,10] [--deltas 240] [--seeds 1,2] [--seconds 300]
-        [--variants baseline,diffdrive,...] [--jobs 1] [--out JSON]
+        [--variants baseline,diffdrive,...] [--jobs 1] [--inprocess] [--out JSON]
 
 Results: ``results/causes.json`` (rewritten after every run), the table docs/protocols/secs.md quotes.
 """
@@ -55,7 +55,12 @@ def one(job: dict) -> dict:
                        checks=[{"use": "secs.connected"}, {"use": "world.no_collisions"}], **params)
     t0 = time.time()
     with tempfile.TemporaryDirectory() as tmp:
-        result = swarmactors.run(sc, out=tmp)
+        if job.get("inprocess"):  # no Zenoh: the same trace hash (tests/unit/test_inprocess.py), faster
+            from swarmactors.runs.inprocess import run_inprocess
+
+            result = run_inprocess(sc, out=tmp)
+        else:
+            result = swarmactors.run(sc, out=tmp)
         checks = {c["name"]: c for c in result.checks}
         a = math.pi / 4
         u = np.array([math.cos(a), math.sin(a)])
@@ -75,6 +80,7 @@ def one(job: dict) -> dict:
         along = last @ u
         reports = result.reports("secs")
         losses = [int(r.get("lost_alignment", 0)) for i, r in sorted(reports.items()) if i != 0]
+        job = {k: v for k, v in job.items() if k != "inprocess"}
         return {**job, "params": params, "wall_s": round(time.time() - t0, 1), "latency": first,
                 "reach": round(max(oracle.max_reach(result).values()), 2),
                 "reach_end": round(float(np.max(along)), 2),
@@ -124,9 +130,12 @@ def main() -> None:
     ap.add_argument("--variants", default=",".join(VARIANTS))
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--out", default=str(Path(__file__).resolve().parent / "results" / "causes.json"))
+    ap.add_argument("--inprocess", action="store_true",
+                    help="step the simulation and the robots in this process, without Zenoh (same traces, faster)")
     ap.add_argument("--fresh", action="store_true", help="ignore the runs already in --out (default: keep them)")
     args = ap.parse_args()
-    jobs = [{"variant": v, "delta": float(d), "n": int(n), "seed": int(s), "seconds": args.seconds}
+    jobs = [{"variant": v, "delta": float(d), "n": int(n), "seed": int(s), "seconds": args.seconds,
+             **({"inprocess": True} if args.inprocess else {})}
             for v in args.variants.split(",") for d in args.deltas.split(",") for n in args.sizes.split(",")
             for s in args.seeds.split(",")]
     rows: list[dict] = []
