@@ -224,8 +224,13 @@ def failures(pool, runs: int) -> list[dict]:
 
 
 def variant(r: dict) -> str:
-    """A time-factor row's recruiting variant: "WP", or "no WP (stretched)" / "no WP (plan)" by ``ask`` (R5)."""
-    return "WP" if r["wp"] else f"no WP ({r.get('ask') or 'stretched'})"
+    """A time-factor row's recruiting variant: "WP", or "no WP (stretched)" / "no WP (plan)" by ``ask`` (R5).
+
+    The name adds ", to the base" when ``route`` = "base".
+    """
+    if r["wp"]:
+        return "WP"
+    return f"no WP ({r.get('ask') or 'stretched'}{', to the base' if r.get('route') == 'base' else ''})"
 
 
 def summarise(results: list[dict]) -> None:

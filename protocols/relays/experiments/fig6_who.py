@@ -3,7 +3,8 @@
 Runs the Fig. 6 time-factor condition (``fig6.sweep_trial``) for the given variants, fields and trials, one
 run after another, and appends each run's row (time factor and the behaviour's recruiting records, see
 ``fig6._who``) to a JSON-lines file; ``--summary`` prints, per variant and field, the recruits by the
-recruiter's depth, the wait from request to join and the heads' stopped time, and each variant's time factor
+recruiter's depth, the wait from request to join, how many other recruits' slots (open to join) overlap each
+one (both chains) and the heads' stopped time, and each variant's time factor
 against WP and against ``ask = "plan"`` (Welch, 95 % CI of the difference).
 
     python -m protocols.relays.experiments.fig6_who --variants stretched,plan,wp --trials 0,1,2
@@ -47,6 +48,21 @@ def joined(row: dict) -> list[list]:
     return [r for r in row["recruits"] if r[8] is not None]
 
 
+def ask_outcomes(row: dict) -> Counter:
+    """Each kept request (robot, depth) by what came of it.
+
+    The robot's first slot opened within the request's 1 s window (recruit_time) joined, closed empty, or had a
+    winner that did not join; or the robot opened no slot (one was still open, or it was not stretched in time).
+    """
+    out = Counter()
+    for rid, t, depth, _up, _st in row["asks"]:
+        slot = next((x for x in row["recruits"] if x[0] == rid and t - 1e-6 <= x[1] <= t + 1.0 + 1e-6), None)
+        what = "no slot" if slot is None else ("joined" if slot[8] is not None else
+                                               "empty" if slot[7] is None else "not joined")
+        out[(depth, what)] += 1
+    return out
+
+
 def summary(rows: list[dict]) -> dict:
     """Per (variant, field): recruits by depth, waits, stops, time factors."""
     out = {}
@@ -64,11 +80,18 @@ def summary(rows: list[dict]) -> dict:
             "request_to_join_s": float(np.median([x[8] - x[5] for x in asked])) if asked else None,
             "request_to_open_s": float(np.median([x[1] - x[5] for x in asked])) if asked else None,
             "open_to_join_s": float(np.median([x[8] - x[1] for x in rec])) if rec else None,
+            "overlap": float(np.mean([sum(y[1] < x[8] and x[1] < y[8] for y in joined(r)) - 1
+                                      for r in rs for x in joined(r)])) if rec else None,
+            "unasked_share": sum(x[5] is None for x in rec) / max(1, len(rec)),
+            "join_s_median": float(np.median([x[8] for x in rec])) if rec else None,
             "empty_slots_per_run": sum(x[7] is None for r in rs for x in r["recruits"]) / len(rs),
             "asks_kept_per_run": len([a for r in rs for a in r["asks"]]) / len(rs),
             "asks_kept_stretched": (sum(bool(a[4]) for r in rs for a in r["asks"])
                                     / max(1, sum(len(r["asks"]) for r in rs))),
             "asks_by_depth": dict(sorted(Counter(a[2] for r in rs for a in r["asks"]).items())),
+            "ask_outcomes": {f"{d}:{w}": n for (d, w), n in
+                             sorted(sum((ask_outcomes(r) for r in rs), Counter()).items())},
+            "empty_by_depth": dict(sorted(Counter(x[2] for r in rs for x in r["recruits"] if x[7] is None).items())),
             "head_stopped_s": float(np.mean([s for r in rs for s in r["head_stopped_s"]])),
             "head_s": float(np.mean([s for r in rs for s in r["head_s"]])),
         }
