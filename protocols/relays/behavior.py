@@ -82,8 +82,23 @@ from swarmactors.robot.behavior import is_int, is_num
 from swarmactors.robot.inputs import SensedView
 
 ASK = ("stretched", "plan")  # R5 without WP: the head asks when its parent link is at d_s, or while the chain is short
+ROUTE = ("first", "base")  # R5 without WP: where the head's request stops (first robot with free neighbours, or base)
 
-__all__ = ["ASK", "BID", "CHAIN", "FREE", "JOIN", "NEED", "NETWORKER", "ROOT", "TASK", "WORKER", "Relays", "valid_plan"]
+__all__ = ["ASK", "BID", "CHAIN", "FREE", "JOIN", "NEED", "NETWORKER", "ROOT", "ROUTE", "TASK", "WORKER", "Relays",
+           "keeps_request", "valid_plan"]
+
+
+def keeps_request(route: str, parent_is_root: bool, can_recruit: bool) -> bool:
+    """R5 without WP: whether a chain robot keeps the head's request (True) or passes it to its parent.
+
+    "first" (Sec. IV, the default): the first robot counted from the head that has free neighbours keeps it,
+    and the base (whose parent is the root) always does. "base": every robot passes it on down to the base,
+    the chain robot nearest the root (the links stretch from the root upwards, so the base is stretched first);
+    the base recruits in front of itself once stretched, or asks the root when it has no free neighbours.
+    """
+    if parent_is_root:
+        return True
+    return route == "first" and can_recruit
 
 
 def valid_plan(v) -> str | None:
@@ -125,7 +140,8 @@ class Relays(Behavior):
                  link_fail: float = 5.0, k: int = 8, wp: bool = False, resolution: float = 0.25,
                  budget: int = 20000, clearance: float = 0.4, area: list | None = None, lookahead: float = 0.5,
                  kind: str = "ground", altitude: float = 0.7, chains_per_target: int = 1, spacing: float = 0.3,
-                 join_time: float | None = None, air: list | None = None, ask: str = "stretched"):
+                 join_time: float | None = None, air: list | None = None, ask: str = "stretched",
+                 route: str = "first"):
         self.targets = [[float(c) for c in t] for t in targets]
         self.cn, self.spacing = chains_per_target, spacing  # C_n chains per target, side by side (Sec. III-C)
         self.root, self.at = root, at
@@ -134,6 +150,7 @@ class Relays(Behavior):
                       "fail": link_fail, "join": link_fail if join_time is None else join_time}
         self.k, self.wp, self.res, self.budget, self.clearance = k, wp, resolution, budget, clearance
         self.ask = ask  # without WP: when the head asks for a robot ("stretched" or "plan", R5)
+        self.route = route  # without WP: where its request stops ("first" or "base", R5)
         self.area, self.lookahead = area, lookahead
         self.kind, self.altitude = kind, altitude  # kind repeats the group's: the context does not tell it
         self.air = air  # [z_lo, z_hi]: plan flights in 3-D within these altitudes (None: at ``altitude`` only)
@@ -178,6 +195,13 @@ class Relays(Behavior):
         self.parent_lost = False
         self.acked = True  # my child has named me as its parent (False for a recruit until it does)
         self.failed: list[list] = []  # [tick, id] links declared failed
+        # who recruits (read by the Fig. 6 analysis, not by any rule): requests that stopped here
+        # [tick, depth, robots from me to the head, stretched], my slots [opened, depth, robots to the head,
+        # stretched, asked tick or None, closed, winner or None, joined tick or None], the head's ticks on its
+        # path before its target and those it stood still
+        self.asked: list[list] = []
+        self.recruits: list[list] = []
+        self.head_ticks = self.head_stopped = 0
         self.splices: list[list] = []  # [tick, "parent"|"child", id]
         self.joined: list[list] = []  # [tick, recruited id] (recruiter) or [tick, chain] (recruit)
         self.root_pos: np.ndarray | None = None
@@ -207,6 +231,9 @@ class Relays(Behavior):
             return f"area = {a!r} must be [[x0, y0], [x1, y1]] with x0 < x1 and y0 < y1"
         if not isinstance(params.get("wp", False), bool):
             return "wp must be true or false"
+        if params.get("route", "first") not in ROUTE:
+            return (f"route = {params.get('route')!r} must be one of {', '.join(ROUTE)} "
+                    "(where a head's request stops without WP)")
         if params.get("ask", "stretched") not in ASK:
             return (f"ask = {params.get('ask')!r} must be one of {', '.join(ASK)} "
                     "(when a head without WP asks for a robot)")
@@ -356,8 +383,9 @@ class Relays(Behavior):
             return
         if self.role not in (WORKER, NETWORKER) or src != self.child:
             return
-        if self.parent == self.root or self._can_recruit(ctx):
+        if keeps_request(self.route, self.parent == self.root, self._can_recruit(ctx)):
             self.need_until = ctx.tick + self._ticks(ctx, "recruit")
+            self._log_ask(ctx)
         elif self.parent is not None:
             BODIES.send(ctx, self.parent, Need(self.chain))
 
@@ -731,8 +759,9 @@ class Relays(Behavior):
         if head and not self.wp and self._asks(stretched) and not self._at_target() and self.parent is not None \
                 and ctx.tick - self.need_sent >= every:
             self.need_sent = ctx.tick
-            if self.parent == self.root or self._can_recruit(ctx):
+            if keeps_request(self.route, self.parent == self.root, self._can_recruit(ctx)):
                 self.need_until = ctx.tick + every
+                self._log_ask(ctx)
             else:
                 BODIES.send(ctx, self.parent, Need(self.chain))
         if self.chain in self.pending:
@@ -778,6 +807,20 @@ class Relays(Behavior):
             pos = self.sensed.get(parent, self._pos(ctx))
         BODIES.broadcast(ctx, Task(key, [float(v) for v in pos], close, chain,
                                    self._needs_flying(chain, child, child == ctx.id)))
+        if self.role == ROOT:  # the root opens a slot when a base asks it, in front of that base
+            self.pending[chain]["log"] = [ctx.tick, 0, None, True, ctx.tick, None, None, None]
+        else:
+            asked = self.need_until - self._ticks(ctx, "recruit") if ctx.tick <= self.need_until else None
+            self.pending[chain]["log"] = [ctx.tick, self.depth, self.cnt - 1 if self.child is not None else 0,
+                                          self._stretched(ctx), asked, None, None, None]
+        self.recruits.append(self.pending[chain]["log"])
+
+    def _stretched(self, ctx: Context) -> bool:
+        return self.parent is not None and self._dist(ctx, self.parent) >= self.ds - self.vmax * ctx.dt
+
+    def _log_ask(self, ctx: Context) -> None:
+        self.asked.append([ctx.tick, self.depth, self.cnt - 1 if self.child is not None else 0,
+                           self._stretched(ctx)])
 
     def _needs_flying(self, chain: int, base: int, mine: bool = False) -> bool:
         """A recruit must fly while the chain holds fewer robots than the airborne part of pi needs."""
@@ -808,10 +851,12 @@ class Relays(Behavior):
         call = Join(chain, p["parent"], p["child"], p["key"])
         if p.get("called") is None:
             if ctx.tick >= p["close"]:
+                p["log"][5] = ctx.tick
                 if p["z"] is None:
                     del self.pending[chain]
                     self.slot_empty_at = ctx.tick
                 else:
+                    p["log"][6] = p["z"]
                     BODIES.send(ctx, p["z"], call)
                     p["called"] = p["z"]
             return
@@ -825,6 +870,7 @@ class Relays(Behavior):
             childs_parent = h[1].parent if h is not None else None
         if childs_parent == p["called"]:  # the child took the recruit as its parent
             self.joined.append([ctx.tick, p["called"]])
+            p["log"][7] = ctx.tick
             del self.pending[chain]
         elif ctx.tick > p["close"] + self._ticks(ctx, "join"):
             del self.pending[chain]
@@ -917,6 +963,9 @@ class Relays(Behavior):
             u = motion.constrain(u, x, links, others, self.rcol, ctx.dt, self.vmax, u_self=self.u_self, v_others=vel,
                                  vertical=self.kind == "flying", rng=ctx.rng)
         u = self._clear_of_walls(ctx, x, u, lambda v: motion.bound(v, x, links, others, self.rcol, ctx.dt))
+        if self.role == WORKER and self.child is None and self.path is not None and self.reached_at is None:
+            self.head_ticks += 1
+            self.head_stopped += float(np.linalg.norm(u)) < 0.1 * self.vmax
         ctx.move([float(v) for v in u] if len(u) == 3 else
                  [float(u[0]), float(u[1])] + ([0.0] if len(ctx.position) == 3 else []))
 
@@ -970,6 +1019,8 @@ class Relays(Behavior):
             "n": self.plan.get("n") if self.plan else None, "kind": self.kind,
             "refused": dict(self.refused), "malformed": dict(self.malformed), "failed": self.failed,
             "splices": self.splices, "joined": self.joined,
+            "asked": self.asked, "recruits": self.recruits, "head_ticks": self.head_ticks,
+            "head_stopped": self.head_stopped,
             "stigmergy": self.node.counters(),
         }
 

@@ -65,12 +65,14 @@ def jittered(n: int, seed: int, spacing: float = 0.55) -> list[list[float]]:
                            for x, y in grid[: n - 1]]
 
 
-def condition(targets: int, obstacle: bool, wp: bool, seed: int, ticks: int, ask: str = "stretched") -> dict:
+def condition(targets: int, obstacle: bool, wp: bool, seed: int, ticks: int, ask: str = "stretched",
+              route: str = "first") -> dict:
     angles = [2 * math.pi * k / targets for k in range(targets)]
     tg = [[round(RADIUS * math.cos(a), 4), round(RADIUS * math.sin(a), 4)] for a in angles]
     obstacles = [o for a in angles for o in c_shape([5.0 * math.cos(a), 5.0 * math.sin(a)], a)] if obstacle else None
     n = 9 * targets + 4
-    return relays_scenario(n, tg, ticks=ticks, seed=seed, obstacles=obstacles, wp=wp, ask=ask,
+    extra = {} if route == "first" else {"route": route}  # the default stays out of the scenario
+    return relays_scenario(n, tg, ticks=ticks, seed=seed, obstacles=obstacles, wp=wp, ask=ask, **extra,
                            positions=jittered(n, seed),
                            checks=[{"use": "relays.reached", "slack": 100.0}, {"use": "relays.links_within_db"}])
 
@@ -94,11 +96,32 @@ def _run(job: dict) -> dict:
                "links_ok": all(c["passed"] for c in r.checks if c["name"] == "relays.links_within_db"),
                "recovery_s": healed[0]["value"] if healed else None,
                "back_s": _back(healed[0]["detail"]) if healed else None,
-               "chain": _chain(reports), "dt": dt}
+               "chain": _chain(reports), "dt": dt, **_who(reports, dt)}
     at = 1 * dt  # the root writes the targets at tick 1
     if out["all_reached"] and out["last_reached_s"] is not None and longest:
         out["time_factor"] = (out["last_reached_s"] - at) / (longest / 0.5)
     return out
+
+
+def _who(reports: dict, dt: float) -> dict:
+    """Who recruited (the behaviour's own records, R5): every slot opened, every request kept, the heads' stops.
+
+    ``recruits``: [recruiter, opened s, depth, robots above it to the head, stretched, asked s or None,
+    closed s, winner, joined s or None]; ``asks``: [robot, s, depth, robots above it, stretched];
+    ``head_stopped_s`` / ``head_s``: per worker, the time it stood still on its path before its target / in all.
+    """
+    def sec(t):
+        return None if t is None else round(t * dt, 3)
+
+    rec, asks, stopped, head = [], [], [], []
+    for rid, rep in sorted(reports.items()):
+        for o, d, up, st, a, c, w, j in rep.get("recruits", []):
+            rec.append([rid, sec(o), d, up, st, sec(a), sec(c), w, sec(j)])
+        asks += [[rid, sec(t), d, up, st] for t, d, up, st in rep.get("asked", [])]
+        if rep.get("head_ticks"):
+            stopped.append(sec(rep["head_stopped"]))
+            head.append(sec(rep["head_ticks"]))
+    return {"recruits": rec, "asks": asks, "head_stopped_s": stopped, "head_s": head}
 
 
 def _back(detail: str) -> float | None:
@@ -201,8 +224,13 @@ def failures(pool, runs: int) -> list[dict]:
 
 
 def variant(r: dict) -> str:
-    """A time-factor row's recruiting variant: "WP", or "no WP (stretched)" / "no WP (plan)" by ``ask`` (R5)."""
-    return "WP" if r["wp"] else f"no WP ({r.get('ask') or 'stretched'})"
+    """A time-factor row's recruiting variant: "WP", or "no WP (stretched)" / "no WP (plan)" by ``ask`` (R5).
+
+    The name adds ", to the base" when ``route`` = "base".
+    """
+    if r["wp"]:
+        return "WP"
+    return f"no WP ({r.get('ask') or 'stretched'}{', to the base' if r.get('route') == 'base' else ''})"
 
 
 def summarise(results: list[dict]) -> None:
@@ -261,10 +289,10 @@ def sweep_trial(params: dict, *, seed: int, trial: int) -> dict:
     ``ask`` (default "stretched") is when a head without WP asks for a robot (R5); it does not act with WP.
     """
     targets, obstacle, wp = int(params["targets"]), bool(params["obstacle"]), bool(params["wp"])
-    ask = str(params.get("ask", "stretched"))
+    ask, route = str(params.get("ask", "stretched")), str(params.get("route", "first"))
     ticks = 500 if obstacle else 450
-    return _run({"kind": "tf", "targets": targets, "obstacle": obstacle, "wp": wp, "ask": ask, "seed": trial,
-                 "scenario": condition(targets, obstacle, wp, trial, ticks, ask)})
+    return _run({"kind": "tf", "targets": targets, "obstacle": obstacle, "wp": wp, "ask": ask, "route": route,
+                 "seed": trial, "scenario": condition(targets, obstacle, wp, trial, ticks, ask, route)})
 
 
 def sweep_failure_trial(params: dict, *, seed: int, trial: int) -> dict:

@@ -1,0 +1,129 @@
+"""Swarm Relays, Fig. 6 at T = 2: who recruits, with and without WP, and the request routed to the base.
+
+Runs the Fig. 6 time-factor condition (``fig6.sweep_trial``) for the given variants, fields and trials, one
+run after another, and appends each run's row (time factor and the behaviour's recruiting records, see
+``fig6._who``) to a JSON-lines file; ``--summary`` prints, per variant and field, the recruits by the
+recruiter's depth, the wait from request to join, how many other recruits' slots (open to join) overlap each
+one (both chains) and the heads' stopped time, and each variant's time factor
+against WP and against ``ask = "plan"`` (Welch, 95 % CI of the difference).
+
+    python -m protocols.relays.experiments.fig6_who --variants stretched,plan,wp --trials 0,1,2
+    python -m protocols.relays.experiments.fig6_who --variants base --trials 0,1,2,3,4,5
+    python -m protocols.relays.experiments.fig6_who --summary
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+from protocols.relays.experiments.fig6 import diff_ci, mean_ci, sweep_trial
+
+OUT = Path(__file__).resolve().parent / "results" / "fig6_who.jsonl"
+VARIANTS = {  # name -> sweep parameters besides targets and obstacle
+    "stretched": {"wp": False, "ask": "stretched"},
+    "plan": {"wp": False, "ask": "plan"},
+    "wp": {"wp": True},
+    "base": {"wp": False, "ask": "plan", "route": "base"},
+}
+
+
+def run(variants: list[str], fields: list[bool], trials: list[int], out: Path = OUT) -> None:
+    for v in variants:
+        for obstacle in fields:
+            for trial in trials:
+                row = sweep_trial({"targets": 2, "obstacle": obstacle, **VARIANTS[v]}, seed=0, trial=trial)
+                row["variant"] = v
+                with out.open("a") as f:
+                    f.write(json.dumps(row) + "\n")
+                print(v, "C" if obstacle else "open", trial, row.get("time_factor"), row["wall_s"], flush=True)
+
+
+def joined(row: dict) -> list[list]:
+    """The slots that ended with a recruit in the chain (its child took it as parent)."""
+    return [r for r in row["recruits"] if r[8] is not None]
+
+
+def ask_outcomes(row: dict) -> Counter:
+    """Each kept request (robot, depth) by what came of it.
+
+    The robot's first slot opened within the request's 1 s window (recruit_time) joined, closed empty, or had a
+    winner that did not join; or the robot opened no slot (one was still open, or it was not stretched in time).
+    """
+    out = Counter()
+    for rid, t, depth, _up, _st in row["asks"]:
+        slot = next((x for x in row["recruits"] if x[0] == rid and t - 1e-6 <= x[1] <= t + 1.0 + 1e-6), None)
+        what = "no slot" if slot is None else ("joined" if slot[8] is not None else
+                                               "empty" if slot[7] is None else "not joined")
+        out[(depth, what)] += 1
+    return out
+
+
+def summary(rows: list[dict]) -> dict:
+    """Per (variant, field): recruits by depth, waits, stops, time factors."""
+    out = {}
+    for key in sorted({(r["variant"], r["obstacle"]) for r in rows}):
+        rs = sorted((r for r in rows if (r["variant"], r["obstacle"]) == key), key=lambda r: r["seed"])
+        rec = [x for r in rs for x in joined(r)]
+        asked = [x for x in rec if x[5] is not None]
+        out[key] = {
+            "runs": len(rs), "trials": [r["seed"] for r in rs],
+            "tf": [r.get("time_factor") for r in rs],
+            "recruits_per_run": len(rec) / len(rs),
+            "by_depth": dict(sorted(Counter(x[2] for x in rec).items())),
+            "root_share": sum(x[2] == 0 for x in rec) / max(1, len(rec)),
+            "stretched_share": sum(bool(x[4]) for x in rec) / max(1, len(rec)),
+            "request_to_join_s": float(np.median([x[8] - x[5] for x in asked])) if asked else None,
+            "request_to_open_s": float(np.median([x[1] - x[5] for x in asked])) if asked else None,
+            "open_to_join_s": float(np.median([x[8] - x[1] for x in rec])) if rec else None,
+            "overlap": float(np.mean([sum(y[1] < x[8] and x[1] < y[8] for y in joined(r)) - 1
+                                      for r in rs for x in joined(r)])) if rec else None,
+            "unasked_share": sum(x[5] is None for x in rec) / max(1, len(rec)),
+            "join_s_median": float(np.median([x[8] for x in rec])) if rec else None,
+            "empty_slots_per_run": sum(x[7] is None for r in rs for x in r["recruits"]) / len(rs),
+            "asks_kept_per_run": len([a for r in rs for a in r["asks"]]) / len(rs),
+            "asks_kept_stretched": (sum(bool(a[4]) for r in rs for a in r["asks"])
+                                    / max(1, sum(len(r["asks"]) for r in rs))),
+            "asks_by_depth": dict(sorted(Counter(a[2] for r in rs for a in r["asks"]).items())),
+            "ask_outcomes": {f"{d}:{w}": n for (d, w), n in
+                             sorted(sum((ask_outcomes(r) for r in rs), Counter()).items())},
+            "empty_by_depth": dict(sorted(Counter(x[2] for r in rs for x in r["recruits"] if x[7] is None).items())),
+            "head_stopped_s": float(np.mean([s for r in rs for s in r["head_stopped_s"]])),
+            "head_s": float(np.mean([s for r in rs for s in r["head_s"]])),
+        }
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--variants", default="stretched,plan,wp")
+    ap.add_argument("--fields", default="open,C")
+    ap.add_argument("--trials", default="0,1,2,3,4,5")
+    ap.add_argument("--summary", action="store_true")
+    a = ap.parse_args()
+    if not a.summary:
+        run(a.variants.split(","), [f == "C" for f in a.fields.split(",")], [int(t) for t in a.trials.split(",")])
+        return
+    rows = [json.loads(line) for line in OUT.open()]
+    s = summary(rows)
+    for (v, obst), d in s.items():
+        print(("C" if obst else "open"), v, json.dumps(d))
+    for obst in (False, True):
+        for v in ("stretched", "plan", "base"):
+            for ref in ("wp", "plan"):
+                if v == ref or (v, obst) not in s or (ref, obst) not in s:
+                    continue
+                a_ = [x for x in s[(v, obst)]["tf"] if x is not None]
+                b_ = [x for x in s[(ref, obst)]["tf"] if x is not None]
+                if len(a_) > 1 and len(b_) > 1:
+                    d, h, p = diff_ci(a_, b_)
+                    print("C" if obst else "open", v, "vs", ref, f"{mean_ci(a_)} {mean_ci(b_)} diff {d:+.2f} ± {h:.2f}"
+                          f" ({100 * d / np.mean(b_):+.0f} %) p = {p:.2g}")
+
+
+if __name__ == "__main__":
+    main()
