@@ -8,10 +8,10 @@ by the Fig. 6 analysis only.
 from __future__ import annotations
 
 import pytest
+from test_relays_recruit import X, robot
 
 from protocols.relays.behavior import NEED, Relays, keeps_request
 from protocols.relays.messages import Need
-from tests.unit.test_relays_recruit import X, robot
 
 
 @pytest.mark.parametrize(("route", "parent_is_root", "can_recruit", "keeps"), [
