@@ -754,7 +754,7 @@ class Relays(Behavior):
         if self.role == ROOT or self.plan is None or not self.plan.get("pe") or self.parent_lost:
             return
         head = self.child is None
-        stretched = self._dist(ctx, self.parent) >= self.ds - self.vmax * ctx.dt
+        stretched = self._stretched(ctx)
         every = self._ticks(ctx, "recruit")
         if head and not self.wp and self._asks(stretched) and not self._at_target() and self.parent is not None \
                 and ctx.tick - self.need_sent >= every:
@@ -816,6 +816,11 @@ class Relays(Behavior):
         self.recruits.append(self.pending[chain]["log"])
 
     def _stretched(self, ctx: Context) -> bool:
+        """R5's stretched test, the one place it is made: my parent link is at d_s - v_max dt or longer.
+
+        With WP a stretched robot recruits; without it the head's ``ask`` and the robot that keeps the request
+        use it; the recruiting records log it. False without a parent.
+        """
         return self.parent is not None and self._dist(ctx, self.parent) >= self.ds - self.vmax * ctx.dt
 
     def _log_ask(self, ctx: Context) -> None:
