@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from protocols.relays.experiments.fig6 import _who, variant
-from protocols.relays.experiments.fig6_who import ask_outcomes, summary
+from protocols.relays.experiments.fig6_who import ask_outcomes, compare, saved, summary
 
 
 def test_the_variant_name_says_when_the_request_goes_to_the_base():
@@ -36,3 +36,17 @@ def test_the_summary_counts_recruits_by_depth_waits_and_what_came_of_each_reques
     assert s["by_depth"] == {1: 2} and s["recruits_per_run"] == 2 and s["empty_slots_per_run"] == 1
     assert abs(s["request_to_join_s"] - 1.9) < 1e-9 and s["overlap"] == 1.0  # the two joined slots overlap
     assert s["head_stopped_s"] == 7.0 and s["head_s"] == 35.0
+
+
+def test_the_saved_sweeps_give_the_references_of_the_same_placements(tmp_path):
+    head = "targets,obstacle,wp,trial,seed,error,metric.kind,metric.targets,metric.obstacle,metric.wp,metric.seed,"
+    rows = [f"3,false,{wp},{t},99,,tf,3,false,{wp},{t},{tf}" for wp, t, tf in
+            [("false", 0, 3.0), ("false", 1, ""), ("false", 2, 2.5), ("true", 0, 2.0), ("true", 1, 2.1)]]
+    (tmp_path / "fig6_sweep.csv").write_text(head + "metric.time_factor\n" + "\n".join(rows) + "\n")
+    # WP lacks placement 2, so it is left out for trials [2, 0]; an unreached run's time factor is None
+    assert saved(3, False, [2, 0], tmp_path) == {"stretched": [2.5, 3.0]}
+    assert saved(3, False, [0, 1], tmp_path) == {"stretched": [3.0, None], "wp": [2.0, 2.1]}
+    assert saved(3, True, [0], tmp_path) == {} and saved(4, False, [0], tmp_path) == {}
+    assert compare([2.0, 2.2, None], [1.9, 2.0]).startswith("2.10 ± ")
+    assert "(2/3, sd 0.14)" in compare([2.0, 2.2, None], [2.0, 2.1]) and "+2 %" in compare([2.0, 2.2], [2.0, 2.1])
+    assert compare([2.0], [2.0, 2.1]).startswith("too few runs")

@@ -1,14 +1,17 @@
-"""Swarm Relays, Fig. 6 at T = 2: who recruits, with and without WP, and the request routed to the base.
+"""Swarm Relays, Fig. 6: who recruits, with and without WP, and the request routed to the base.
 
-Runs the Fig. 6 time-factor condition (``fig6.sweep_trial``) for the given variants, fields and trials, one
-run after another, and appends each run's row (time factor and the behaviour's recruiting records, see
-``fig6._who``) to a JSON-lines file; ``--summary`` prints, per variant and field, the recruits by the
-recruiter's depth, the wait from request to join, how many other recruits' slots (open to join) overlap each
-one (both chains) and the heads' stopped time, and each variant's time factor
-against WP and against ``ask = "plan"`` (Welch, 95 % CI of the difference).
+Runs the Fig. 6 time-factor condition (``fig6.sweep_trial``) for the given variants, numbers of targets
+(``--T``, default 2), fields and trials, one run after another, and appends each run's row (time factor and
+the behaviour's recruiting records, see ``fig6._who``) to a JSON-lines file; ``--summary`` prints, per T,
+variant and field, the recruits by the recruiter's depth, the wait from request to join, how many other
+recruits' slots (open to join) overlap each one (both chains) and the heads' stopped time, and each variant's
+time factor against WP and against ``ask = "plan"`` of these rows and against the saved sweeps' rows of the
+same placements (WP and the non-WP default from ``fig6_sweep.csv``, ``plan`` from ``fig6_ask_sweep.csv``;
+Welch, 95 % CI of the difference).
 
     python -m protocols.relays.experiments.fig6_who --variants stretched,plan,wp --trials 0,1,2
     python -m protocols.relays.experiments.fig6_who --variants base --trials 0,1,2,3,4,5
+    python -m protocols.relays.experiments.fig6_who --variants base --T 3,4 --trials 0,1,2,3,4,5
     python -m protocols.relays.experiments.fig6_who --summary
 """
 
@@ -32,15 +35,18 @@ VARIANTS = {  # name -> sweep parameters besides targets and obstacle
 }
 
 
-def run(variants: list[str], fields: list[bool], trials: list[int], out: Path = OUT) -> None:
+def run(variants: list[str], fields: list[bool], trials: list[int], out: Path = OUT,
+        targets: list[int] = (2,)) -> None:
     for v in variants:
-        for obstacle in fields:
-            for trial in trials:
-                row = sweep_trial({"targets": 2, "obstacle": obstacle, **VARIANTS[v]}, seed=0, trial=trial)
-                row["variant"] = v
-                with out.open("a") as f:
-                    f.write(json.dumps(row) + "\n")
-                print(v, "C" if obstacle else "open", trial, row.get("time_factor"), row["wall_s"], flush=True)
+        for t in targets:
+            for obstacle in fields:
+                for trial in trials:
+                    row = sweep_trial({"targets": t, "obstacle": obstacle, **VARIANTS[v]}, seed=0, trial=trial)
+                    row["variant"] = v
+                    with out.open("a") as f:
+                        f.write(json.dumps(row) + "\n")
+                    print(v, f"T={t}", "C" if obstacle else "open", trial, row.get("time_factor"), row["wall_s"],
+                          flush=True)
 
 
 def joined(row: dict) -> list[list]:
@@ -103,27 +109,59 @@ def main() -> None:
     ap.add_argument("--variants", default="stretched,plan,wp")
     ap.add_argument("--fields", default="open,C")
     ap.add_argument("--trials", default="0,1,2,3,4,5")
+    ap.add_argument("--T", default="2", help="numbers of targets, e.g. 3,4")
     ap.add_argument("--summary", action="store_true")
     a = ap.parse_args()
     if not a.summary:
-        run(a.variants.split(","), [f == "C" for f in a.fields.split(",")], [int(t) for t in a.trials.split(",")])
+        run(a.variants.split(","), [f == "C" for f in a.fields.split(",")], [int(t) for t in a.trials.split(",")],
+            targets=[int(t) for t in a.T.split(",")])
         return
     rows = [json.loads(line) for line in OUT.open()]
-    s = summary(rows)
-    for (v, obst), d in s.items():
-        print(("C" if obst else "open"), v, json.dumps(d))
-    for obst in (False, True):
-        for v in ("stretched", "plan", "base"):
-            for ref in ("wp", "plan"):
-                if v == ref or (v, obst) not in s or (ref, obst) not in s:
+    for t in sorted({r.get("targets", 2) for r in rows}):
+        s = summary([r for r in rows if r.get("targets", 2) == t])
+        for (v, obst), d in s.items():
+            print(f"T={t}", ("C" if obst else "open"), v, json.dumps(d))
+        for obst in (False, True):
+            for v in ("stretched", "plan", "base"):
+                if (v, obst) not in s:
                     continue
-                a_ = [x for x in s[(v, obst)]["tf"] if x is not None]
-                b_ = [x for x in s[(ref, obst)]["tf"] if x is not None]
-                if len(a_) > 1 and len(b_) > 1:
-                    d, h, p = diff_ci(a_, b_)
-                    print("C" if obst else "open", v, "vs", ref, f"{mean_ci(a_)} {mean_ci(b_)} diff {d:+.2f} ± {h:.2f}"
-                          f" ({100 * d / np.mean(b_):+.0f} %) p = {p:.2g}")
+                trials = s[(v, obst)]["trials"]
+                refs = {**{f"{ref} (these rows)": s[(ref, obst)]["tf"] for ref in ("wp", "plan")
+                           if ref != v and (ref, obst) in s},
+                        **{f"{ref} (saved sweep)": xs for ref, xs in saved(t, obst, trials).items() if ref != v}}
+                for ref, b_ in refs.items():
+                    print(f"T={t}", "C" if obst else "open", v, "vs", ref, compare(s[(v, obst)]["tf"], b_))
 
+
+def compare(a: list, b: list) -> str:
+    """A's time factors against b's: both means with their 95 % CI and runs, a - b, its CI, % of b, Welch p."""
+    a_, b_ = [x for x in a if x is not None], [x for x in b if x is not None]
+    if len(a_) < 2 or len(b_) < 2:
+        return f"too few runs ({len(a_)}/{len(a)}, {len(b_)}/{len(b)})"
+    (ma, ha), (mb, hb) = mean_ci(a_), mean_ci(b_)
+    d, h, p = diff_ci(a_, b_)
+    return (f"{ma:.2f} ± {ha:.2f} ({len(a_)}/{len(a)}, sd {np.std(a_, ddof=1):.2f}) against {mb:.2f} ± {hb:.2f} "
+            f"({len(b_)}/{len(b)}, sd {np.std(b_, ddof=1):.2f}): {d:+.2f} ± {h:.2f} ({100 * d / mb:+.0f} %), "
+            f"Welch p = {p:.2g}")
+
+
+def saved(targets: int, obstacle: bool, trials: list[int], results: Path = OUT.parent) -> dict[str, list]:
+    """The saved sweeps' time factors of the same placements (trials), in the order of ``trials``.
+
+    "wp" and "stretched" (the non-WP default) from ``fig6_sweep.csv``, "plan" from ``fig6_ask_sweep.csv`` (T = 2).
+    """
+    from swarmactors.tools.sweep import returned_values
+
+    out: dict[str, dict[int, float | None]] = {}
+    for name in ("fig6_sweep.csv", "fig6_ask_sweep.csv"):
+        if not (results / name).exists():
+            continue
+        for r in returned_values(results / name):
+            if r.get("kind") != "tf" or (r["targets"], r["obstacle"]) != (targets, obstacle):
+                continue
+            ref = "wp" if r["wp"] else (r.get("ask") or "stretched")
+            out.setdefault(ref, {})[r["seed"]] = r.get("time_factor")
+    return {ref: [by[t] for t in trials] for ref, by in out.items() if all(t in by for t in trials)}
 
 if __name__ == "__main__":
     main()
