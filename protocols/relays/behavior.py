@@ -12,8 +12,8 @@ Message kinds (every rule is a message exchange or a local computation; docs/pro
   robots that hear it bid 1/(1 + distance to pos) and run max-consensus on (bid, -id) per slot (CBAA's
   auction and consensus phases, one task per robot); at ``close`` the recruiter sends REL_JOIN to the
   winner it holds, which becomes a networker between the recruiter and the root (Prop. 1).
-* REL_NEED - without WP prediction, the chain's head asks for a robot when its parent link is at d_s; the
-  request travels parent by parent down to the robot linked to the root, which recruits.
+* REL_NEED - without WP prediction, the chain's head asks for a robot (when: ``ask``); the request travels
+  parent by parent towards the root, and where it stops is ``route`` (R5).
 
 Rules:
 
@@ -29,12 +29,17 @@ Rules:
 * R4 motion - motion.py (Eqs. 6-8 with the stated reading of Eq. 8's admissible set, RVO by sampling, the
   safety guard); neighbour velocities from the robot's own consecutive sensings; the root stands still;
   free robots stay within d_s of the root and step aside from chain robots.
-* R5 recruiting - with WP prediction every stretched chain robot (link to its parent at d_s - v_max dt) with
-  free neighbours recruits; without it, only after a REL_NEED from the head. When the head sends it is the
-  parameter ``ask``: "stretched" (its own parent link at d_s - v_max dt; it then stands still until the
-  recruit's slack arrives) or "plan" (Sec. IV: "the worker determines the number of links required to reach
-  the target": while the chain holds fewer than n = ceil(d_path / d_s) links, moving on meanwhile; and when
-  stretched, as a fallback).
+* R5 recruiting - with WP prediction every stretched chain robot (link to its parent at d_s - v_max dt,
+  ``_stretched``) with free neighbours recruits; without it, only a robot holding a REL_NEED from the head.
+  When the head sends it is the parameter ``ask``: "stretched" (default; its own parent link at
+  d_s - v_max dt; it then stands still until the recruit's slack arrives) or "plan" (Sec. IV: "the worker
+  determines the number of links required to reach the target": while the chain holds fewer than
+  n = ceil(d_path / d_s) links, moving on meanwhile; and when stretched, as a fallback). Where the request
+  stops is the parameter ``route`` (``keeps_request``): "first" (default, Sec. IV's "passed down the
+  networkers towards the root, until a free robot is found") - the first robot counted from the head that has
+  free neighbours keeps it, else the base; "base" - every robot passes it on down to the base (the robot
+  whose parent is the root). The robot holding it recruits in front of itself once stretched; a base without
+  free neighbours asks the root, which recruits in front of it.
 * R6 link failure - a parent or child not heard for ``link_fail`` is declared failed. A robot that lost
   its parent moves back along pi (Eq. 6 with d_P = inf) until a robot of its C_local up-list (or the root)
   is within d_s, then takes it as parent; a robot that lost its child acts as a temporary worker (moves
@@ -374,7 +379,7 @@ class Relays(Behavior):
             self.child = x
 
     def _on_need(self, ctx: Context, src: int, b: Need) -> None:
-        """The head's request for a robot travels towards the root until a robot with free neighbours (Sec. IV)."""
+        """The head's request for a robot travels towards the root until a robot keeps it (``route``, Sec. IV)."""
         if self.role == ROOT:  # a base without free neighbours: the root recruits in front of it
             c = b.chain
             h = self.heard.get(src)
@@ -746,8 +751,9 @@ class Relays(Behavior):
     def _recruit(self, ctx: Context) -> None:
         """R5: recruiting; the CBAA slots on the recruiter's side.
 
-        The head's NEED travels down to the first robot with free neighbours, which opens a slot in front of
-        itself (between its parent and itself); a base without free neighbours asks the root.
+        The head's NEED travels down to the robot that keeps it (``route``: the first with free neighbours, or
+        the base), which opens a slot in front of itself (between its parent and itself) once stretched; a base
+        without free neighbours asks the root.
         """
         for chain in sorted(self.pending):
             self._run_slot(ctx, chain)
