@@ -12,7 +12,7 @@ Welch, 95 % CI of the difference).
     python -m protocols.relays.experiments.fig6_who --variants stretched,plan,wp --trials 0,1,2
     python -m protocols.relays.experiments.fig6_who --variants base --trials 0,1,2,3,4,5
     python -m protocols.relays.experiments.fig6_who --variants base --T 3,4 --trials 0,1,2,3,4,5
-    python -m protocols.relays.experiments.fig6_who --summary
+    python -m protocols.relays.experiments.fig6_who --summary [--trials 0,1,2,3,4,5]
 """
 
 from __future__ import annotations
@@ -108,15 +108,17 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--variants", default="stretched,plan,wp")
     ap.add_argument("--fields", default="open,C")
-    ap.add_argument("--trials", default="0,1,2,3,4,5")
+    ap.add_argument("--trials", default=None, help="placements (default 0-5; with --summary: only these rows)")
     ap.add_argument("--T", default="2", help="numbers of targets, e.g. 3,4")
     ap.add_argument("--summary", action="store_true")
     a = ap.parse_args()
     if not a.summary:
-        run(a.variants.split(","), [f == "C" for f in a.fields.split(",")], [int(t) for t in a.trials.split(",")],
-            targets=[int(t) for t in a.T.split(",")])
+        run(a.variants.split(","), [f == "C" for f in a.fields.split(",")],
+            [int(t) for t in (a.trials or "0,1,2,3,4,5").split(",")], targets=[int(t) for t in a.T.split(",")])
         return
     rows = [json.loads(line) for line in OUT.open()]
+    if a.trials:
+        rows = [r for r in rows if r["seed"] in {int(t) for t in a.trials.split(",")}]
     for t in sorted({r.get("targets", 2) for r in rows}):
         s = summary([r for r in rows if r.get("targets", 2) == t])
         for (v, obst), d in s.items():
