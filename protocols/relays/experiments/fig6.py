@@ -2,7 +2,8 @@
 
 Time factor (middle/top): 2-4 targets on a circle of radius 10 m around the root, with and without a
 C-shaped obstacle on each target's ray (5 m out, its cup open towards the root), with and without WP
-prediction (without it, ``ask`` = "stretched" or "plan": when the head asks for a robot, R5). Time factor =
+prediction (without it, ``ask`` = "stretched" or "plan": when the head asks for a robot, and ``route`` = "first" or
+"base": where its request stops, R5). Time factor =
 (tick the last worker reaches its target - tick the targets are written) * dt,
 divided by the traversal time (the longest planned path / v_max). N = 9 T + 4 robots (9 per chain, 4 spare),
 clustered at the root with a random jitter per run (seed).
@@ -284,9 +285,10 @@ def slope(rows: list[dict], key: str = "recovery_s") -> dict | None:
 
 
 def sweep_trial(params: dict, *, seed: int, trial: int) -> dict:
-    """One time-factor run of ``fig6.toml``: condition (targets, obstacle, wp, ask), jitter ``trial``.
+    """One time-factor run of ``fig6.toml``: condition (targets, obstacle, wp, ask, route), jitter ``trial``.
 
-    ``ask`` (default "stretched") is when a head without WP asks for a robot (R5); it does not act with WP.
+    ``ask`` (default "stretched") is when a head without WP asks for a robot, ``route`` (default "first") where its
+    request stops (R5); neither acts with WP.
     """
     targets, obstacle, wp = int(params["targets"]), bool(params["obstacle"]), bool(params["wp"])
     ask, route = str(params.get("ask", "stretched")), str(params.get("route", "first"))
