@@ -1,14 +1,16 @@
-"""Shared fixtures: running scenarios given as dicts, in a temporary directory."""
+"""Shared fixtures: running scenarios given as dicts, in a temporary directory; runs shared by a whole session."""
 
 from __future__ import annotations
 
 import asyncio
+import json
 import os
 from pathlib import Path
 
 import pytest
 
 from swarmactors.oracle.result import Result
+from swarmactors.runs.conformance import run_case as _run_case
 from swarmactors.runs.launcher import new_run_id, run_world
 from swarmactors.runs.scenario import resolve_scenario
 from transport import Endpoints
@@ -56,3 +58,39 @@ def run(tmp_path):
         return run_scenario(raw, out, overrides, processes)
 
     return _run
+
+
+# -- runs that several tests judge: each computed once per session, on first use ------------------------------
+@pytest.fixture(scope="session")
+def builtin_case_run(tmp_path_factory):
+    """``builtin_case_run(family, case)`` -> ``run_case(family, case, None, out, determinism=True)``, once per session.
+
+    The built-in behaviour on a conformance case (K = 0, then K = 2 for a lockstep case): tests/test_pins.py pins
+    its trace hash and the conformance fixture judges its checks, from the same run.
+    """
+    done: dict[tuple, object] = {}
+
+    def get(family, case):
+        key = (family.name, case.name, json.dumps(case.scenario, sort_keys=True, default=repr))
+        if key not in done:
+            done[key] = _run_case(family, case, None, tmp_path_factory.mktemp("case"), determinism=True)
+        return done[key]
+
+    return get
+
+
+@pytest.fixture
+def conformance(conformance, builtin_case_run, monkeypatch):
+    """The plugin's fixture, with the built-in behaviour's runs (determinism judged) shared with tests/test_pins.py."""
+    import swarmactors.runs.conformance as kit
+
+    own = kit.run_case
+
+    def run_case(family, case, behavior, out_dir, clock=None, determinism=True):
+        if behavior is None and clock is None and determinism:
+            return builtin_case_run(family, case)
+        return own(family, case, behavior, out_dir, clock=clock, determinism=determinism)
+
+    monkeypatch.setattr(kit, "run_case", run_case)
+    return conformance
+

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from swarmactors.runs.conformance import families, run_case
+from swarmactors.runs.conformance import families
 from swarmactors.runs.inprocess import run_inprocess
 from swarmactors.runs.launcher import run
 
@@ -106,10 +106,11 @@ def test_shipped_scenario_in_process_has_the_same_pinned_hash(name, tmp_path):
 
 
 @pytest.mark.parametrize("case_name", sorted(CASE_PINS))
-def test_conformance_case_trace_hash_is_pinned(case_name, tmp_path):
+def test_conformance_case_trace_hash_is_pinned(case_name, builtin_case_run):
+    """The same run as the conformance fixture's (tests/conftest.py's ``builtin_case_run``), computed once."""
     family = families()[case_name.split("/")[0]]
     (case,) = [c for c in family.suite("quick") if c.name == case_name]
-    result = run_case(family, case, None, tmp_path, determinism=True)  # K=0, then K=2 must give the same hash
+    result = builtin_case_run(family, case)  # K=0, then K=2 must give the same hash
     determinism = [o for o in result.outcomes if o["name"] == "determinism"]
     assert determinism and determinism[0]["passed"], determinism
     assert result.trace_hash == CASE_PINS[case_name]
