@@ -16,6 +16,7 @@ from swarmactors.runs.scenario import resolve_scenario
 from transport import Endpoints
 
 CHECKOUT_OUT = Path(__file__).resolve().parent.parent / "out"  # where runs without an output directory go
+SHIPPED = Path(__file__).resolve().parent.parent / "scenarios"
 
 
 def _runs_in(folder: Path) -> set[str]:
@@ -61,6 +62,25 @@ def run(tmp_path):
 
 
 # -- runs that several tests judge: each computed once per session, on first use ------------------------------
+@pytest.fixture(scope="session")
+def shipped_run(tmp_path_factory):
+    """``shipped_run(name, processes)`` -> the Result of ``scenarios/<name>`` run to its end, once per session.
+
+    tests/test_pins.py pins its trace hash; other tests judge the same run's checks and metrics.
+    """
+    from swarmactors.runs.launcher import run as run_file
+
+    done: dict[tuple[str, int], Result] = {}
+
+    def get(name: str, processes: int) -> Result:
+        if (name, processes) not in done:
+            out = tmp_path_factory.mktemp(f"shipped-{name.removesuffix('.toml')}-k{processes}")
+            done[name, processes] = run_file(SHIPPED / name, out=out, processes=processes)
+        return done[name, processes]
+
+    return get
+
+
 @pytest.fixture(scope="session")
 def builtin_case_run(tmp_path_factory):
     """``builtin_case_run(family, case)`` -> ``run_case(family, case, None, out, determinism=True)``, once per session.

@@ -101,11 +101,12 @@ def test_experiment_under_local_sensing(tmp_path):
 
 # ------------------------------------------------------------------ §5.1 (slow: 10⁴ ticks per method)
 @pytest.mark.slow
-def test_simulation_51_proposed_passes_and_prior_collides(tmp_path):
-    proposed = run(_load("leader-follower.toml"), out=tmp_path / "proposed")
+def test_simulation_51_proposed_passes_and_prior_collides(shipped_run):
+    """The runs to the end that tests/test_pins.py pins (K = 0, tests/conftest.py's ``shipped_run``)."""
+    proposed = shipped_run("leader-follower.toml", 0)
     assert all(_passed(proposed).values()), proposed.checks
     assert proposed["metrics"]["leader_follower"]["switches"] >= 1
-    prior = run(_load("leader-follower-prior.toml"), out=tmp_path / "prior")
+    prior = shipped_run("leader-follower-prior.toml", 0)
     assert prior["world"]["collisions"]["robot_robot"] >= 1
     assert not _passed(prior)["world.no_collisions"]
 

@@ -94,9 +94,9 @@ def test_every_quick_lockstep_case_is_pinned():
 
 @pytest.mark.parametrize("processes", [0, 2])
 @pytest.mark.parametrize("name", sorted(SCENARIO_PINS))
-def test_shipped_scenario_trace_hash_is_pinned(name, processes, tmp_path):
-    result = run(SCENARIOS / name, out=tmp_path, processes=processes)
-    assert result["trace_hash"] == SCENARIO_PINS[name]
+def test_shipped_scenario_trace_hash_is_pinned(name, processes, shipped_run):
+    """The run to the end (tests/conftest.py's ``shipped_run``: other tests judge the same run's checks)."""
+    assert shipped_run(name, processes)["trace_hash"] == SCENARIO_PINS[name]
 
 
 @pytest.mark.parametrize("name", sorted(SCENARIO_PINS))
