@@ -114,3 +114,15 @@ def conformance(conformance, builtin_case_run, monkeypatch):
     monkeypatch.setattr(kit, "run_case", run_case)
     return conformance
 
+
+
+@pytest.fixture(scope="session")
+def clean_flood(tmp_path_factory):
+    """test_bad_input.py's FLOOD_RAW, undisturbed, through its WireRun harness (pause and resume included).
+
+    Once per session: the wire-garbage tests there and the attack tests (tests/test_attacks.py) compare their
+    disturbed runs with it.
+    """
+    from test_bad_input import FLOOD_RAW, WireRun
+
+    return WireRun(FLOOD_RAW, tmp_path_factory.mktemp("clean") / "run").run()
