@@ -82,6 +82,25 @@ def shipped_run(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
+def shipped_inprocess(tmp_path_factory):
+    """``shipped_inprocess(name, hosts)`` -> ``run_inprocess`` of ``scenarios/<name>`` (no Zenoh), once per session.
+
+    tests/test_pins.py pins its trace hash (hosts = 2); tests/unit/test_inprocess.py judges the same run's checks.
+    """
+    from swarmactors.runs.inprocess import run_inprocess
+
+    done: dict[tuple[str, int], Result] = {}
+
+    def get(name: str, hosts: int) -> Result:
+        if (name, hosts) not in done:
+            out = tmp_path_factory.mktemp(f"inprocess-{name.removesuffix('.toml')}-h{hosts}")
+            done[name, hosts] = run_inprocess(SHIPPED / name, out=out, hosts=hosts)
+        return done[name, hosts]
+
+    return get
+
+
+@pytest.fixture(scope="session")
 def builtin_case_run(tmp_path_factory):
     """``builtin_case_run(family, case)`` -> ``run_case(family, case, None, out, determinism=True)``, once per session.
 

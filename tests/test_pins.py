@@ -14,7 +14,6 @@ from pathlib import Path
 import pytest
 
 from swarmactors.runs.conformance import families
-from swarmactors.runs.inprocess import run_inprocess
 from swarmactors.runs.launcher import run
 
 pytestmark = pytest.mark.slow
@@ -100,9 +99,9 @@ def test_shipped_scenario_trace_hash_is_pinned(name, processes, shipped_run):
 
 
 @pytest.mark.parametrize("name", sorted(SCENARIO_PINS))
-def test_shipped_scenario_in_process_has_the_same_pinned_hash(name, tmp_path):
+def test_shipped_scenario_in_process_has_the_same_pinned_hash(name, shipped_inprocess):
     """The Simulation and two robot runtimes in one loop, no Zenoh (swarmactors/runs/inprocess.py): the same hash."""
-    assert run_inprocess(SCENARIOS / name, out=tmp_path, hosts=2)["trace_hash"] == SCENARIO_PINS[name]
+    assert shipped_inprocess(name, 2)["trace_hash"] == SCENARIO_PINS[name]
 
 
 @pytest.mark.parametrize("case_name", sorted(CASE_PINS))
