@@ -5,6 +5,8 @@ from __future__ import annotations
 import asyncio
 import json
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -145,3 +147,19 @@ def clean_flood(tmp_path_factory):
     from test_bad_input import FLOOD_RAW, WireRun
 
     return WireRun(FLOOD_RAW, tmp_path_factory.mktemp("clean") / "run").run()
+
+
+@pytest.fixture(scope="session")
+def image():
+    """Build (or reuse) the base image and the project image, once per session; the compose command.
+
+    tests/test_docker.py and tests/test_cluster.py's compose profile test run containers of it.
+    """
+    from needs import require_docker
+
+    compose = require_docker()
+    env = {**os.environ, "PYTHON": sys.executable}
+    out = subprocess.run([str(SHIPPED.parent / "docker" / "build-image.sh")], env=env, capture_output=True,
+                         text=True, timeout=1200)
+    assert out.returncode == 0, out.stderr + out.stdout
+    return compose
