@@ -79,9 +79,9 @@ def _honest_deliveries(result) -> list:
 
 
 @pytest.fixture(scope="module")
-def undisturbed(tmp_path_factory):
-    """The reference run, through the same harness (pause and resume included)."""
-    return WireRun(FLOOD_RAW, tmp_path_factory.mktemp("undisturbed") / "run").run()
+def undisturbed(clean_flood):
+    """The reference run, through the same harness (pause and resume included): tests/conftest.py's clean_flood."""
+    return clean_flood
 
 
 @pytest.fixture

@@ -368,12 +368,6 @@ def _trace_without_malformed(result) -> list[dict]:
     return [{k: v for k, v in rec.items() if k != "mal"} for rec in result.trace]
 
 
-@pytest.fixture(scope="module")
-def clean_flood(tmp_path_factory):
-    """The clean reference run, through the same harness (pause and resume included)."""
-    return WireRun(FLOOD_RAW, tmp_path_factory.mktemp("clean") / "run").run()
-
-
 def _garbage(wr: WireRun, z: zenoh.Session, status: dict) -> None:
     """Garbage on every key the world listens on; every item must be dropped and counted once."""
     k = wr.keys

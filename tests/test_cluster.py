@@ -213,21 +213,18 @@ def test_a_sweep_file_is_the_sweep_of_its_options(tmp_path):
 
 @pytest.mark.docker
 @pytest.mark.slow
-def test_compose_cluster_profile_runs_a_sweep_submitted_from_the_host(scenario, tmp_path, capsys, monkeypatch):
+def test_compose_cluster_profile_runs_a_sweep_submitted_from_the_host(image, scenario, tmp_path, capsys,
+                                                                       monkeypatch):
     """docker/compose.yaml --profile cluster: a scheduler and 2 workers over mutual TLS; the same CSV as locally.
 
-    A client without the cluster's certificate, or with another CA's, is refused (exit 3).
+    A client without the cluster's certificate, or with another CA's, is refused (exit 3). The image is
+    tests/conftest.py's, built once per session for tests/test_docker.py too.
     """
     import socket
     import uuid
 
-    from needs import require_docker
-
-    compose = require_docker()
+    compose = image
     repo = Path(__file__).resolve().parents[1]
-    built = subprocess.run([str(repo / "docker" / "build-image.sh")], env={**os.environ, "PYTHON": sys.executable},
-                           capture_output=True, text=True, timeout=1200)  # reuses the image of tests/test_docker.py
-    assert built.returncode == 0, built.stderr + built.stdout
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]

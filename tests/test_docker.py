@@ -14,22 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from needs import require_docker
-
 REPO = Path(__file__).resolve().parents[1]
 COMPOSE_FILE = REPO / "docker" / "compose.yaml"
 pytestmark = [pytest.mark.docker, pytest.mark.slow]  # builds images and runs worlds in containers
-
-
-@pytest.fixture(scope="session")
-def image():
-    """Build (or reuse) the base image and the project image."""
-    compose = require_docker()
-    env = {**os.environ, "PYTHON": sys.executable}
-    out = subprocess.run([str(REPO / "docker" / "build-image.sh")], env=env, capture_output=True, text=True,
-                         timeout=1200)
-    assert out.returncode == 0, out.stderr + out.stdout
-    return compose
 
 
 def compose_up(compose, scenario: Path, out: Path, replicas: int, per_host: int, clock="lockstep",
@@ -77,7 +64,13 @@ def single_process(scenario: Path, out: Path, *extra: str) -> dict:
     return json.loads((out / "result.json").read_text())
 
 
-def test_compose_run_equals_the_single_process_run(image, tmp_path):
+@pytest.fixture(scope="module")
+def flood_reference(tmp_path_factory) -> dict:
+    """scenarios/flooding.toml in one process (the CLI), the result.json both compose runs are compared with."""
+    return single_process(REPO / "scenarios" / "flooding.toml", tmp_path_factory.mktemp("flood") / "single")
+
+
+def test_compose_run_equals_the_single_process_run(image, flood_reference, tmp_path):
     scenario = REPO / "scenarios" / "flooding.toml"
     out = tmp_path / "compose"
     out.mkdir()
@@ -88,7 +81,7 @@ def test_compose_run_equals_the_single_process_run(image, tmp_path):
     assert not got["interrupted"] and got["checks"], logs[-3000:]
     assert "every check passed (exit 0)" in logs and (out / "swarm.png").exists(), logs[-3000:]
     assert (out / "result.json").stat().st_uid == 1000  # written by the image's user, not root
-    ref = single_process(scenario, tmp_path / "single")
+    ref = flood_reference
     assert {r["host"] for r in got["robots"].values()} == {"h0", "h1", "h2"}  # three containers ran robots
     assert got["trace_hash"] == ref["trace_hash"]  # lockstep: identical history
     assert {k: r["flooding"]["received"] for k, r in got["robots"].items()} == \
@@ -144,7 +137,7 @@ def test_killing_a_robot_container_fails_its_robots_and_the_run_goes_on(image, t
     assert len(survivors) == 6 and all(r["beacon"]["heard"] > 0 for r in survivors)
 
 
-def test_compose_secure_profile_runs_over_tls_with_the_credential(image, tmp_path):
+def test_compose_secure_profile_runs_over_tls_with_the_credential(image, flood_reference, tmp_path):
     scenario = REPO / "scenarios" / "flooding.toml"
     out = tmp_path / "secure"
     out.mkdir()
@@ -154,7 +147,7 @@ def test_compose_secure_profile_runs_over_tls_with_the_credential(image, tmp_pat
     # SWARMACTORS_UID: every container ran as that user (the credential it shares is readable by it), and
     # what the world wrote in OUT belongs to it
     assert {p.stat().st_uid for p in out.iterdir()} == {4321}
-    ref = single_process(scenario, tmp_path / "single")
+    ref = flood_reference
     assert {r["host"] for r in got["robots"].values()} == {"h0", "h1", "h2"}
     assert got["trace_hash"] == ref["trace_hash"]
     assert "running without --secure" not in logs

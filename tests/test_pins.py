@@ -13,8 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from swarmactors.runs.conformance import families, run_case
-from swarmactors.runs.inprocess import run_inprocess
+from swarmactors.runs.conformance import families
 from swarmactors.runs.launcher import run
 
 pytestmark = pytest.mark.slow
@@ -94,22 +93,23 @@ def test_every_quick_lockstep_case_is_pinned():
 
 @pytest.mark.parametrize("processes", [0, 2])
 @pytest.mark.parametrize("name", sorted(SCENARIO_PINS))
-def test_shipped_scenario_trace_hash_is_pinned(name, processes, tmp_path):
-    result = run(SCENARIOS / name, out=tmp_path, processes=processes)
-    assert result["trace_hash"] == SCENARIO_PINS[name]
+def test_shipped_scenario_trace_hash_is_pinned(name, processes, shipped_run):
+    """The run to the end (tests/conftest.py's ``shipped_run``: other tests judge the same run's checks)."""
+    assert shipped_run(name, processes)["trace_hash"] == SCENARIO_PINS[name]
 
 
 @pytest.mark.parametrize("name", sorted(SCENARIO_PINS))
-def test_shipped_scenario_in_process_has_the_same_pinned_hash(name, tmp_path):
+def test_shipped_scenario_in_process_has_the_same_pinned_hash(name, shipped_inprocess):
     """The Simulation and two robot runtimes in one loop, no Zenoh (swarmactors/runs/inprocess.py): the same hash."""
-    assert run_inprocess(SCENARIOS / name, out=tmp_path, hosts=2)["trace_hash"] == SCENARIO_PINS[name]
+    assert shipped_inprocess(name, 2)["trace_hash"] == SCENARIO_PINS[name]
 
 
 @pytest.mark.parametrize("case_name", sorted(CASE_PINS))
-def test_conformance_case_trace_hash_is_pinned(case_name, tmp_path):
+def test_conformance_case_trace_hash_is_pinned(case_name, builtin_case_run):
+    """The same run as the conformance fixture's (tests/conftest.py's ``builtin_case_run``), computed once."""
     family = families()[case_name.split("/")[0]]
     (case,) = [c for c in family.suite("quick") if c.name == case_name]
-    result = run_case(family, case, None, tmp_path, determinism=True)  # K=0, then K=2 must give the same hash
+    result = builtin_case_run(family, case)  # K=0, then K=2 must give the same hash
     determinism = [o for o in result.outcomes if o["name"] == "determinism"]
     assert determinism and determinism[0]["passed"], determinism
     assert result.trace_hash == CASE_PINS[case_name]

@@ -7,23 +7,20 @@ add transport and nothing else. (tests/test_pins.py runs every pinned scenario t
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
-from swarmactors.runs.inprocess import InProcessRun, run_inprocess
+from swarmactors.runs.inprocess import InProcessRun
 from swarmactors.runs.scenario import resolve
 from test_pins import SCENARIO_PINS
 
-SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
-
 
 @pytest.mark.parametrize("name,hosts", [("flooding.toml", 1), ("biconnectivity-check.toml", 2)])
-def test_a_whole_scenario_in_process_has_its_pinned_hash(name, hosts, tmp_path):
-    result = run_inprocess(SCENARIOS / name, out=tmp_path, hosts=hosts)
+def test_a_whole_scenario_in_process_has_its_pinned_hash(name, hosts, shipped_inprocess):
+    """The run (tests/conftest.py's ``shipped_inprocess``) is the one tests/test_pins.py pins at two runtimes."""
+    result = shipped_inprocess(name, hosts)
     assert result["trace_hash"] == SCENARIO_PINS[name]
     assert result["checks"] and all(c["passed"] for c in result["checks"]), result["checks"]
-    assert (tmp_path / "trace.msgpack").is_file()
+    assert (result.path.parent / "trace.msgpack").is_file()
 
 
 def test_stepping_by_hand_gives_one_record_a_tick_and_stops_at_the_end():
