@@ -269,17 +269,21 @@ def replot_prelim(results: Path, out_dir: Path) -> list[Path]:
 
 
 def replot_main(results: Path, out_dir: Path) -> list[Path]:
-    """Figs. 7-11 and Fig. 7 under both witness sets, re-drawn from the saved ``paper.json``.
+    """Figs. 7-11 and Fig. 7 under both witness sets, re-drawn from the saved results.
 
-    Fig. 6 (snapshots of one run) is drawn only by ``--replot``, which runs it again.
+    Figs. 7-11 from the 30-trial sweep's rows (``fig6-11_sweep.csv`` beside ``paper.json``) when they are
+    there, else from ``paper.json``'s main rows; Fig. 7 under both witness sets from ``paper.json`` (its
+    "ours" side: its 10 main trials per N). Fig. 6 (snapshots of one run) is drawn only by ``--replot``,
+    which runs it again.
     """
     out = Path(out_dir)
-    main_rows = _saved(results, "main")
-    plot_main(main_rows, out)
+    saved = _saved(results, "main")
+    sweep = Path(results).parent / "fig6-11_sweep.csv"
+    plot_main(main_rows(sweep) if sweep.exists() else saved, out)
     paths = [out / f"roles-{n}.png" for n in ("fig7-disconnections", "fig8-per-robot", "fig9-per-role",
                                               "fig10-11-cost-messages")]
     if "witnesses_all" in json.loads(Path(results).read_text()):
-        paths.append(plot_fig7_witnesses(main_rows, _saved(results, "witnesses_all"), out))
+        paths.append(plot_fig7_witnesses(saved, _saved(results, "witnesses_all"), out))
     return paths
 
 
