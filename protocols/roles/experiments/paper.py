@@ -626,7 +626,8 @@ def main() -> None:
             plot_prelim(results["preliminary"]["rows"], args.img, fig3)
             results["preliminary"]["fig3"] = {k: v for k, v in fig3.items() if k != "pos"}
         if "main" in results:
-            plot_main(ints(results["main"]["rows"]), args.img)
+            sweep = args.out.parent / "fig6-11_sweep.csv"  # the 30 trials per N, when saved beside the JSON
+            plot_main(main_rows(sweep) if sweep.exists() else ints(results["main"]["rows"]), args.img)
             results["main"]["fig6"] = fig6_snapshots(args.img, ticks=results["main"]["ticks"])
         for key in [k for k in results if k.startswith("main_ds")]:
             plot_main(ints(results[key]["rows"]), args.img, prefix=f"roles-ds{results[key]['d_s']}")
