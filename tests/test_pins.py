@@ -66,7 +66,7 @@ CASE_PINS = {
     "leader_follower/random-4-s1": "d1463a6987c7c1a1493ac465754a2106",  # issue 20
     "leader_follower/random-6-s6-noise-0.005": "8e6a5c2216126395948eaa3657f4aee2",  # issue 20
     "roles/patrol-10-s1": "da3bfff1040dd8dc00c8beda159ee585",  # issue 23: overheard copies
-    "roles/patrol-20-s3": "5c1ddebd2a3764cc5cbdfd925c9436f7",  # issue 23: overheard copies
+    "roles/patrol-20-s3": "8e01bb6fae88d532507e9a8cddc3f9e9",  # H6 child side: a repeater holds towards its child
     "roles/patrol-10-s2-loss-0.1": "59225d516179dde3b3b0a161e761373f",  # issue 23: overheard copies
     "secs/n5-d240-3r2": "0bc067f2ad73d4a08a215790ef056a8f",  # issue 18
     "secs/n5-d240-3r2-loss-0.1": "941c4678eace6a873d8afc4677579aa1",  # issue 18

@@ -23,7 +23,8 @@ Algorithm 1 (local leader i, parent p, d = |x_i - x_p|), made safe under loss
   H5 a local leader that hears (STATE or flood) of a local leader with a larger (epoch, id) steps down: it
      completes its own hand-over if that robot is its candidate, reverts to its previous role if it took the
      lead from that robot, and becomes an explorer otherwise.
-  H6 (ours) a local leader that cannot hand over does not drive beyond hold x d_c from its parent.
+  H6 (ours) a local leader or repeater beyond hold x d_c from its parent heads back to it; a repeater beyond
+     hold x d_c from its child does not move away from it (it stands still if both pulls conflict).
   Without loss the two switch on the same tick T: exactly one local leader at every tick. With loss the gap
   without exactly one leader is 0 unless every answer by T was lost; it then lasts until the first answer
   arrives (two chances per tick), or until the lease ends (H4/H5).

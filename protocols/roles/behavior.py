@@ -583,7 +583,7 @@ class RoleSwitching(Behavior, _Timed):
         if xp is None or xc is None:
             return
         u = repeater_input(x, xp, xc, self.known_role.get(self.child) == LL, self.p, self.d_c)  # Eqs. 1-2
-        self.u = cap(hold(u, x, xp, self.p, self.d_c), self.p.vmax)
+        self.u = cap(hold(u, x, xp, self.p, self.d_c, xc), self.p.vmax)
 
     def _tick_leader(self, ctx: Context, x: np.ndarray) -> None:
         if self.ho is None and self.pending is None:

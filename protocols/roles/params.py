@@ -74,7 +74,7 @@ class RoleParams:
     arrive: float = _p(0.1, POSITIVE, "a target is reached within this distance")
     switch_delay: int = _p(3, COUNT, "H1: the switch tick is the request's tick + switch_delay")
     lease: int = _p(6, COUNT, "H4: a request unanswered by T + lease is taken as lost")
-    hold: float = _p(0.9, FRACTION, "H6: a leader or repeater stays within hold d_c of its parent")
+    hold: float = _p(0.9, FRACTION, "H6: a chain robot stays within hold d_c of its parent (and its child)")
     margin: float = _p(0.05, GAIN, "H1': a candidate must stand beyond (eta_b + margin) d_c")
 
     @classmethod

@@ -49,17 +49,37 @@ def leader_input(x: np.ndarray, goal: Sequence[float] | None, p: RoleParams) -> 
     return p.k4 * (np.array(goal) - x) if goal is not None else np.zeros(2)
 
 
-def hold(u: np.ndarray, x: np.ndarray, xp: np.ndarray | None, p: RoleParams, d_c: float) -> np.ndarray:
-    """H6 (ours): beyond hold d_c from its parent, the outward part of u is replaced by vmax inwards."""
-    if xp is None:
-        return u
-    r = x - xp
-    d = float(np.hypot(*r))
-    if d <= p.hold * d_c:
-        return u
-    rh = r / d
-    out = float(u @ rh)
-    return u - (out + p.vmax) * rh if out > -p.vmax else u
+def hold(u: np.ndarray, x: np.ndarray, xp: np.ndarray | None, p: RoleParams, d_c: float,
+         xc: np.ndarray | None = None) -> np.ndarray:
+    """H6 (ours): a chain robot's input kept from stretching its chain links past hold d_c.
+
+    Parent side: beyond hold d_c from its parent (``xp``), the outward part of u is replaced by vmax inwards.
+    Child side (a repeater; ``xc``, its child's position): beyond hold d_c from its child, the part of u that
+    points away from the child is dropped, after the parent side, so that the parent side's pull never drags
+    the robot away from a child that cannot follow at once (a new repeater turning round at 0.15 rad per
+    timestep). When that leaves u pointing away from a parent beyond hold d_c as well, the robot stands still:
+    neither link grows.
+    """
+    rp = None
+    if xp is not None:
+        r = x - xp
+        d = float(np.hypot(*r))
+        if d > p.hold * d_c:
+            rp = r / d
+            out = float(u @ rp)
+            if out > -p.vmax:
+                u = u - (out + p.vmax) * rp
+    if xc is not None:
+        r = x - xc
+        d = float(np.hypot(*r))
+        if d > p.hold * d_c:
+            rc = r / d
+            out = float(u @ rc)
+            if out > 0.0:
+                u = u - out * rc
+                if rp is not None and float(u @ rp) > 0.0:
+                    u = np.zeros(2)
+    return u
 
 
 def explorer_input(x: np.ndarray, link_u: Sequence[Sequence[float] | None],

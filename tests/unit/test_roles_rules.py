@@ -124,6 +124,42 @@ def test_h6_hold_turns_an_outward_input_inwards_beyond_hold_d_c():
     assert np.array_equal(hold(u, far, None, P, D_C), u)  # no parent known
 
 
+def test_h6_hold_never_drives_a_repeater_away_from_a_child_beyond_hold_d_c():
+    """The patrol N = 30, seed 2020 (tick 1557): repeater 17, held towards its parent at vmax, left its child 10.
+
+    10 had just handed the lead over and was turning round (0.15 rad per timestep) so could not follow: the
+    link 17-10 grew from 1.30 to 1.506 > d_c in 15 ticks. The child side of H6 keeps the parent side's pull
+    (and Eqs. 1-2) from moving a repeater away from a child already beyond hold d_c.
+    """
+    far = P.hold * D_C + 0.05
+    xp, x, xc = np.array([-far, 0.0]), np.array([0.0, 0.0]), np.array([far - 0.02, 0.0])  # a straight chain
+    u = np.array([0.0, 0.01])
+    assert np.array_equal(hold(u, x, xp, P, D_C, None), [-P.vmax, 0.01])  # parent side alone: away from the child
+    assert np.allclose(hold(u, x, xp, P, D_C, xc), [0.0, 0.01])  # child side: no move along the chain
+    near = np.array([P.hold * D_C - 0.05, 0.0])  # the child within hold d_c: the parent side as before
+    assert np.array_equal(hold(u, x, xp, P, D_C, near), [-P.vmax, 0.01])
+    towards = np.array([0.02, 0.0])  # towards a far child: kept (Eq. 1's midpoint, the chain's normal motion)
+    assert np.array_equal(hold(towards, x, None, P, D_C, xc), towards)
+    bent = np.array([0.0, -far])  # parent and child at a right angle: the pull to the parent stays whole
+    assert np.allclose(hold(u, x, xp, P, D_C, bent), [-P.vmax, 0.0])
+    wide = far * np.array([0.5, -math.sqrt(3) / 2])  # 120 degrees: dropping the child-outward part of a large
+    assert np.array_equal(hold(np.array([0.0, 0.2]), x, xp, P, D_C, wide), [0.0, 0.0])  # input leaves a parent-
+    # outward one: the robot stands still
+
+
+@settings(max_examples=200, deadline=None)
+@given(vec, vec, vec, vec)
+def test_h6_hold_does_not_stretch_a_link_already_beyond_hold_d_c(u, x, xp, xc):
+    """First order: u never lengthens the parent link or the child link of a robot beyond hold d_c of either."""
+    u = u / 100
+    out = hold(u, x, xp, P, D_C, xc)
+    for other in (xp, xc):
+        r = x - other
+        d = float(np.hypot(*r))
+        if d > P.hold * D_C:
+            assert float(out @ r) / d <= 1e-12
+
+
 def test_eqs4_to_7_explorer_terms_add_up_and_are_capped():
     p = RoleParams(leader=1, vmax=10.0)
     x = np.array([0.0, 0.0])

@@ -217,15 +217,41 @@ def prelim_figures(csv_path: Path, out_dir: Path) -> list[Path]:
 
 def main_figures(csv_path: Path, out_dir: Path) -> list[Path]:
     """The post step of the Figs. 6-11 sweep: the plots and ``main.json`` (aggregates by N)."""
+    out = Path(out_dir)
+    agg = plot_main(main_rows(csv_path), out)
+    (out / "main.json").write_text(json.dumps({"by_n": agg, "paper": PAPER}, indent=1, default=float))
+    return [out / "main.json", *sorted(out.glob("roles-*.png"))]
+
+
+def main_rows(csv_path: Path) -> list[dict]:
+    """The Figs. 6-11 sweep's trials.csv read back as the rows ``main_job`` returned.
+
+    The CSV has one column per key any trial returned, so a cell is empty where that trial's dict had no such
+    key: ``metric.cpu_s.<id>`` of a robot that does not exist at that N, ``received_per_tick_by_kind.<kind>``
+    of a kind no robot received in that run. Those keys are dropped, not read as 0: a missing robot is not a
+    robot with no processing time (it would pull Fig. 10's boxes and the per-robot mean down), and a kind that
+    was never received counts as 0 per tick only where the aggregate asks for it (``plot_main``: ``.get(k, 0)``),
+    as it did for the rows of ``main_job``.
+    """
     from swarmactors.tools.sweep import returned_values
 
     rows = returned_values(csv_path)
-    for r in rows:  # JSON keys are strings; the plots index robots by int
-        r["cpu_s"] = {int(k): v for k, v in r["cpu_s"].items()}
-    out = Path(out_dir)
-    agg = plot_main(rows, out)
-    (out / "main.json").write_text(json.dumps({"by_n": agg, "paper": PAPER}, indent=1, default=float))
-    return [out / "main.json", *sorted(out.glob("roles-*.png"))]
+    for r in rows:
+        # JSON keys are strings; the plots index robots by int
+        r["cpu_s"] = {int(k): v for k, v in r["cpu_s"].items() if v is not None}
+        r["received_per_tick_by_kind"] = {k: v for k, v in (r.get("received_per_tick_by_kind") or {}).items()
+                                          if v is not None}
+        r["checks"] = dict(_dotted(r.get("checks") or {}))  # "roles.chain" came back as {"roles": {"chain": ..}}
+    return rows
+
+
+def _dotted(d: dict, prefix: str = ""):
+    """A nested dict's leaves as (dotted key, value), empty cells (None) left out."""
+    for k, v in d.items():
+        if isinstance(v, dict):
+            yield from _dotted(v, f"{prefix}{k}.")
+        elif v is not None:
+            yield f"{prefix}{k}", v
 
 
 def _saved(results: Path, key: str) -> list[dict]:
@@ -243,17 +269,21 @@ def replot_prelim(results: Path, out_dir: Path) -> list[Path]:
 
 
 def replot_main(results: Path, out_dir: Path) -> list[Path]:
-    """Figs. 7-11 and Fig. 7 under both witness sets, re-drawn from the saved ``paper.json``.
+    """Figs. 7-11 and Fig. 7 under both witness sets, re-drawn from the saved results.
 
-    Fig. 6 (snapshots of one run) is drawn only by ``--replot``, which runs it again.
+    Figs. 7-11 from the 30-trial sweep's rows (``fig6-11_sweep.csv`` beside ``paper.json``) when they are
+    there, else from ``paper.json``'s main rows; Fig. 7 under both witness sets from ``paper.json`` (its
+    "ours" side: its 10 main trials per N). Fig. 6 (snapshots of one run) is drawn only by ``--replot``,
+    which runs it again.
     """
     out = Path(out_dir)
-    main_rows = _saved(results, "main")
-    plot_main(main_rows, out)
+    saved = _saved(results, "main")
+    sweep = Path(results).parent / "fig6-11_sweep.csv"
+    plot_main(main_rows(sweep) if sweep.exists() else saved, out)
     paths = [out / f"roles-{n}.png" for n in ("fig7-disconnections", "fig8-per-robot", "fig9-per-role",
                                               "fig10-11-cost-messages")]
     if "witnesses_all" in json.loads(Path(results).read_text()):
-        paths.append(plot_fig7_witnesses(main_rows, _saved(results, "witnesses_all"), out))
+        paths.append(plot_fig7_witnesses(saved, _saved(results, "witnesses_all"), out))
     return paths
 
 
@@ -596,7 +626,8 @@ def main() -> None:
             plot_prelim(results["preliminary"]["rows"], args.img, fig3)
             results["preliminary"]["fig3"] = {k: v for k, v in fig3.items() if k != "pos"}
         if "main" in results:
-            plot_main(ints(results["main"]["rows"]), args.img)
+            sweep = args.out.parent / "fig6-11_sweep.csv"  # the 30 trials per N, when saved beside the JSON
+            plot_main(main_rows(sweep) if sweep.exists() else ints(results["main"]["rows"]), args.img)
             results["main"]["fig6"] = fig6_snapshots(args.img, ticks=results["main"]["ticks"])
         for key in [k for k in results if k.startswith("main_ds")]:
             plot_main(ints(results[key]["rows"]), args.img, prefix=f"roles-ds{results[key]['d_s']}")
