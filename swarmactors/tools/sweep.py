@@ -33,7 +33,9 @@ the scenario and its ``set``, ``grid``, ``trials`` and ``out``:
 callable instead of a scenario (``trial = "module:function"``, for trials that
 are not runs, such as one MILP instance): each trial calls
 ``function(params, seed=…, trial=…)`` with the ``params`` table and the grid
-point's values, and its returned dict becomes the row's ``metric.`` cells.
+point's values, and its returned dict becomes the row's ``metric.`` cells; a
+returned ``"checks": {name: passed}`` also fills ``passed`` and ``check.<name>``,
+so the summary counts a callable trial's failed checks as a run's.
 """
 
 from __future__ import annotations
@@ -402,7 +404,14 @@ def callable_cells(ref: str, params: dict, seed: int, trial: int, *, out: Path |
             raise TypeError(f"{ref} returned {type(value).__name__}, not a dict of metrics")
     except Exception as exc:  # the row says why; the sweep goes on
         return {"error": f"{exc.__class__.__name__}: {exc}"}, False
-    return {"error": "", **{f"metric.{k}": cell(v) for k, v in _flatten(value)}}, False
+    row = {"error": "", **{f"metric.{k}": cell(v) for k, v in _flatten(value)}}
+    checks = value.get("checks")
+    if isinstance(checks, dict) and checks and all(isinstance(v, bool) for v in checks.values()):
+        # a returned {"checks": {name: passed}} is the trial's verdict, as a scenario run's checks are
+        row["passed"] = cell(all(checks.values()))
+        for name, ok in checks.items():
+            row[f"check.{name}"] = "pass" if ok else "fail"
+    return row, False
 
 
 def returned_values(csv_path: str | Path) -> list[dict]:
