@@ -26,9 +26,13 @@ fi
 if [[ -z "${BASE:-}" ]]; then
     "$here/build-base.sh"
 fi
-# Wheels for the project and its pinned dependencies, for the image's Python (3.11, glibc).
+# Wheels for the project and its pinned dependencies, for the image's Python (3.11, glibc). The dependencies
+# (docker/wheels/deps, the same bytes from one build to the next) and the project (docker/wheels/project) go
+# into separate layers, so a change of the project's code reuses the cached layer of its dependencies.
 rm -rf "$here/wheels"
-"$python" -m pip wheel --quiet -w "$here/wheels" -c "$repo/constraints.txt" "$repo"
+"$python" -m pip wheel --quiet -w "$here/wheels/deps" -c "$repo/constraints.txt" "$repo"
+mkdir -p "$here/wheels/project"
+mv "$here"/wheels/deps/swarmactors-*.whl "$here/wheels/project/"
 docker build --quiet -f "$here/Dockerfile" --build-arg "BASE=$base" --build-arg "UID=$uid" --build-arg "GID=$gid" \
     --label "swarmactors.src=$src_hash" \
     -t "$image" "$repo" >/dev/null
