@@ -38,7 +38,8 @@ def _quick_tests_keep_the_checkout_clean(request):
     before = _runs_in(CHECKOUT_OUT)
     yield
     new = sorted(_runs_in(CHECKOUT_OUT) - before)
-    assert not new, f"this test wrote into the checkout's out/: {new[:5]} (give the run an output directory)"
+    assert not new, (f"this test wrote into the checkout's out/: {new[:5]} (give the run an output directory; "
+                     "or another process ran in this checkout meanwhile, e.g. an experiment without --out)")
 
 
 def run_scenario(raw: dict, out: Path, overrides: list[str] = (), processes: int | None = None) -> Result:
