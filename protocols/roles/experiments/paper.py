@@ -263,8 +263,15 @@ def _saved(results: Path, key: str) -> list[dict]:
 
 
 def replot_prelim(results: Path, out_dir: Path) -> list[Path]:
-    """Figs. 4-5 re-drawn from the saved ``paper.json`` (Fig. 3, a snapshot of one run, only by ``--replot``)."""
-    plot_prelim(_saved(results, "preliminary"), Path(out_dir), None)
+    """Figs. 4-5 re-drawn from the saved results (Fig. 3, a snapshot of one run, only by ``--replot``).
+
+    From the 30-trial sweep's rows (``fig3-5_sweep.csv`` beside ``paper.json``) when they are there, else from
+    ``paper.json``'s preliminary rows.
+    """
+    from swarmactors.tools.sweep import returned_values
+
+    sweep = Path(results).parent / "fig3-5_sweep.csv"
+    plot_prelim(returned_values(sweep) if sweep.exists() else _saved(results, "preliminary"), Path(out_dir), None)
     return [Path(out_dir) / "roles-fig4-aat-cost.png", Path(out_dir) / "roles-fig5-lambda2.png"]
 
 
