@@ -36,6 +36,7 @@ import tempfile
 import threading
 import time
 import uuid
+import warnings
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,6 +44,11 @@ from pathlib import Path
 CONNECT_TIMEOUT_S = 10.0  # an unreachable scheduler is reported after this long
 POLL_S = 0.5  # how often a task looks at its child and at the cancel event
 LOST_S = 15.0  # a client that has not been connected for this long: the scheduler is gone
+# Packages that must have the same version on the client, the scheduler and every worker: they carry the tasks
+# and their results (Dask's protocol and pickling). Python must agree on major.minor (pickled code); its patch
+# level and Dask's optional packages (numpy, pandas, lz4, ...) may differ, as between a client's virtual
+# environment and the Debian-based image.
+SAME_VERSION = ("dask", "distributed", "msgpack", "cloudpickle", "tornado", "toolz")
 
 
 class ClusterError(RuntimeError):
@@ -104,8 +110,12 @@ def connect(text: str, timeout: float | None = None, certs: str | Path | None = 
         except ValueError:
             raise ValueError(f"SWARMACTORS_CLUSTER_TIMEOUT={os.environ['SWARMACTORS_CLUSTER_TIMEOUT']!r}: "
                              "expected seconds") from None
+    from distributed.versions import VersionMismatchWarning
+
     try:
-        client = Client(address, timeout=timeout, set_as_default=False, security=security)
+        with warnings.catch_warnings():  # Dask warns on any difference; check_versions judges the ones that matter
+            warnings.simplefilter("ignore", VersionMismatchWarning)
+            client = Client(address, timeout=timeout, set_as_default=False, security=security)
     except (OSError, TimeoutError) as exc:
         raise ClusterError(f"cannot reach the Dask scheduler at {address} within {timeout:g} s ({exc})") from None
     if not client.scheduler_info().get("workers"):
@@ -115,7 +125,33 @@ def connect(text: str, timeout: float | None = None, certs: str | Path | None = 
             client.close()
             raise ClusterError(f"the Dask scheduler at {address} has no workers (none joined in {timeout:g} s)"
                                ) from None
+    versions = client.get_versions()
+    peers = {"scheduler": versions["scheduler"]["packages"]}
+    peers.update({f"worker {w}": v["packages"] for w, v in sorted(versions["workers"].items())})
+    problems = version_mismatches(versions["client"]["packages"], peers)
+    if problems:
+        client.close()
+        raise ClusterError(f"the Dask cluster at {address} does not match this client: {'; '.join(problems)} "
+                           "(install the same versions there, e.g. from constraints.txt)")
     return client
+
+
+def version_mismatches(mine: dict[str, str | None], peers: dict[str, dict[str, str | None]]) -> list[str]:
+    """What differs from this client's ``mine`` ({package: version}) in ``peers`` ({name: packages}) and matters.
+
+    Python must agree on major.minor, the packages of ``SAME_VERSION`` exactly; anything else may differ.
+    """
+    def python(version: str | None) -> str | None:
+        return ".".join(version.split(".")[:2]) if version else version
+
+    problems = []
+    for name, theirs in peers.items():
+        if python(theirs.get("python")) != python(mine.get("python")):
+            problems.append(f"{name} runs Python {theirs.get('python')}, this client {mine.get('python')}")
+        for package in SAME_VERSION:
+            if theirs.get(package) != mine.get(package):
+                problems.append(f"{name} has {package} {theirs.get(package)}, this client {mine.get(package)}")
+    return problems
 
 
 def _importable(modules: list[str]) -> dict:
