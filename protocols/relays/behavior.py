@@ -705,7 +705,7 @@ class Relays(Behavior):
             self.plan = e.value
 
     def _links(self, ctx: Context) -> None:
-        """R6: declare failed links; splice a lost parent to a C_local ancestor within d_s.
+        """R6: declare failed links; splice a lost parent to a C_local ancestor within d_s, not one heard free.
 
         A recruit that its child has not taken as parent within ``link_fail`` goes back to free (the root
         gives up its slot at the same time and recruits again).
@@ -725,13 +725,22 @@ class Relays(Behavior):
             self.dn = [ctx.id]
         if self.parent_lost:
             for j in self.up[1:] + [self.root]:
-                if j != ctx.id and self._alive(ctx, j) and self._dist(ctx, j) <= self.ds:
+                if j != ctx.id and self._alive(ctx, j) and self._dist(ctx, j) <= self.ds and not self._free(j):
                     self.parent, self.parent_lost = j, False
                     self.splices.append([ctx.tick, "parent", j])
                     break
         if self.role == NETWORKER and self.child is None and self.plan and self.plan.get("pe") \
                 and self.s is not None and self.path is not None and self.s >= self.path[1][-1] - self.rcol:
             self.role = WORKER  # a temporary worker that reached the target
+
+    def _free(self, j: int) -> bool:
+        """Robot j's last status said free: no chain robot, so never a parent to splice to (R6).
+
+        ``up`` still names a recruit that was released before its child's ack reached it (R5); splicing to it
+        would make a free robot the parent again, and the chain stays cut for as long as the run lasts.
+        """
+        h = self.heard.get(j)
+        return h is not None and h[1].role == FREE
 
     def _free_neighbours(self, ctx: Context) -> list[int]:
         f = self._ticks(ctx, "forget")

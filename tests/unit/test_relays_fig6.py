@@ -26,3 +26,15 @@ def test_the_failure_slope_and_its_ci_per_failed_robot():
     assert math.isclose(fit["slope"], 1.5) and math.isclose(fit["intercept"], 5.0)
     assert 0 < fit["half"] < 0.3 and fit["n"] == 10 and fit["traversal"] == 20.0
     assert slope([{"failed": 1, "recovery_s": 5.2}, {"failed": 1, "recovery_s": 5.4}]) is None
+
+
+def test_the_end_chain_stops_where_a_parent_is_missing():
+    """A cut chain (a robot without a parent, or with a parent that has no report) ends there, not in a KeyError."""
+    from protocols.relays.experiments.fig6 import _chain
+
+    whole = {12: {"role": "worker", "parent": 2}, 2: {"role": "networker", "parent": 0},
+             0: {"role": "root", "parent": None}}
+    assert _chain(whole) == [12, 2, 0]
+    cut = {**whole, 2: {"role": "networker", "parent": 9}, 9: {"role": "free", "parent": None}}
+    assert _chain(cut) == [12, 2, 9]
+    assert _chain({**whole, 2: {"role": "networker", "parent": None}}) == [12, 2]

@@ -200,3 +200,28 @@ def test_a_parent_that_announces_itself_free_is_lost_and_join_time_defaults_to_l
     r._on_chain(SimpleNamespace(tick=6, id=3), 0, Chain("root", depth=0))
     assert r.parent == 0  # the root is never a lost parent
     assert r.times["join"] == r.times["fail"] == 5.0 and Relays([[1, 0]], join_time=30.0).times["join"] == 30.0
+
+
+def test_a_lost_parent_is_never_spliced_to_a_robot_last_heard_free():
+    """R6 after R5: a recruit released before its child's ack reached it stays in the child's ``up`` list.
+
+    Splicing to it made the free robot the parent again, the child dropped it at its next status, and so on
+    to the end of the run (Fig. 6 bottom, f = 2, chain 17: the chain cut for 32 s). The splice goes on up the
+    list, here to the root.
+    """
+    from types import SimpleNamespace
+
+    r = Relays([[8.0, 0.0]], root=0)
+    r.role, r.chain, r.parent, r.child, r.up = "networker", 0, 9, 7, [5, 9, 0]
+    ctx = SimpleNamespace(tick=100, id=5, dt=0.2, position=[1.0, 0.0, 0.0])
+    r.sensed = {9: np.array([1.5, 0.0]), 0: np.array([0.0, 0.0])}
+    r._on_chain(ctx, 0, Chain("root", depth=0))
+    r._on_chain(ctx, 9, Chain("free"))  # the recruit went back to free
+    assert r.parent is None and r.parent_lost
+    r._links(ctx)
+    assert r.parent == 0 and not r.parent_lost and r.splices[-1] == [100, "parent", 0]
+    # a chain robot of ``up`` is still a splice target
+    r.parent, r.parent_lost, r.up = None, True, [5, 9, 0]
+    r._on_chain(ctx, 9, Chain("networker", chain=0, depth=1))
+    r._links(ctx)
+    assert r.parent == 9

@@ -97,7 +97,8 @@ def _run(job: dict) -> dict:
                "links_ok": all(c["passed"] for c in r.checks if c["name"] == "relays.links_within_db"),
                "recovery_s": healed[0]["value"] if healed else None,
                "back_s": _back(healed[0]["detail"]) if healed else None,
-               "chain": _chain(reports), "dt": dt, **_who(reports, dt)}
+               "chain": _chain(reports), "dt": dt, **_who(reports, dt),
+               "checks": {c["name"]: c["passed"] for c in r.checks}}  # the sweep counts the failed ones
     at = 1 * dt  # the root writes the targets at tick 1
     if out["all_reached"] and out["last_reached_s"] is not None and longest:
         out["time_factor"] = (out["last_reached_s"] - at) / (longest / 0.5)
@@ -132,11 +133,12 @@ def _back(detail: str) -> float | None:
 
 
 def _chain(reports: dict) -> list[int]:
+    """The worker's chain at the end of the run, up its parents; it stops short of the root where one is cut."""
     workers = [r for r, rep in reports.items() if rep["role"] == "worker"]
     if len(workers) != 1:
         return []
     out = [workers[0]]
-    while reports[out[-1]]["role"] != "root" and len(out) < 100:
+    while reports[out[-1]]["role"] != "root" and len(out) < 100 and reports[out[-1]]["parent"] in reports:
         out.append(reports[out[-1]]["parent"])
     return out
 
@@ -215,7 +217,8 @@ def failures(pool, runs: int) -> list[dict]:
                 continue
             sc = relays_scenario(n, [[RADIUS, 0.0]], ticks=built + 400, seed=b["seed"],
                                  positions=jittered(n, b["seed"]), kills=[(built, nets[:f])],
-                                 checks=[{"use": "relays.healed"}, {"use": "relays.reached", "slack": 100.0}])
+                                 checks=[{"use": "relays.healed"}, {"use": "relays.reached", "slack": 100.0},
+                                 {"use": "relays.connected"}])  # whole at every tick from 60 s after the kill
             jobs.append({"kind": "fail", "seed": b["seed"], "failed": f, "networkers": len(nets), "scenario": sc})
     out = []
     for res in pool.imap(_run, jobs):
@@ -312,7 +315,8 @@ def sweep_failure_trial(params: dict, *, seed: int, trial: int) -> dict:
                 "skipped": "chain too short"}
     sc = relays_scenario(n, [[RADIUS, 0.0]], ticks=built + 400, seed=trial, positions=jittered(n, trial),
                          kills=[(built, nets[:f])], link_fail=link_fail,
-                         checks=[{"use": "relays.healed"}, {"use": "relays.reached", "slack": 100.0}])
+                         checks=[{"use": "relays.healed"}, {"use": "relays.reached", "slack": 100.0},
+                                 {"use": "relays.connected"}])  # whole at every tick from 60 s after the kill
     return _run({"kind": "fail", "seed": trial, "failed": f, "networkers": len(nets), "link_fail": link_fail,
                  "scenario": sc})
 
