@@ -113,7 +113,7 @@ def connect(text: str, timeout: float | None = None, certs: str | Path | None = 
     from distributed.versions import VersionMismatchWarning
 
     try:
-        with warnings.catch_warnings():  # Dask warns on any difference; check_versions judges the ones that matter
+        with warnings.catch_warnings():  # Dask warns on any difference; version_mismatches judges those that matter
             warnings.simplefilter("ignore", VersionMismatchWarning)
             client = Client(address, timeout=timeout, set_as_default=False, security=security)
     except (OSError, TimeoutError) as exc:
