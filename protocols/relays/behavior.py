@@ -39,7 +39,9 @@ Rules:
   networkers towards the root, until a free robot is found") - the first robot counted from the head that has
   free neighbours keeps it, else the base; "base" - every robot passes it on down to the base (the robot
   whose parent is the root). The robot holding it recruits in front of itself once stretched; a base without
-  free neighbours asks the root, which recruits in front of it.
+  free neighbours asks the root, which recruits in front of it. A recruit its child has not taken within
+  ``join_time`` withdraws (its REL_CHAIN names no child) for ``recruit_time``, then goes back to free unless
+  its child's ack came meanwhile (``_overdue``).
 * R6 link failure - a parent or child not heard for ``link_fail`` is declared failed. A robot that lost
   its parent moves back along pi (Eq. 6 with d_P = inf) until a robot of its C_local up-list (or the root)
   is within d_s, then takes it as parent; a robot that lost its child acts as a temporary worker (moves
@@ -707,10 +709,10 @@ class Relays(Behavior):
     def _links(self, ctx: Context) -> None:
         """R6: declare failed links; splice a lost parent to a C_local ancestor within d_s, not one heard free.
 
-        A recruit that its child has not taken as parent within ``link_fail`` goes back to free (the root
-        gives up its slot at the same time and recruits again).
+        A recruit that its child has not taken as parent within ``join_time`` first withdraws, then goes back
+        to free (``_overdue``), so that its child cannot take it in the tick it goes free.
         """
-        if self.role == NETWORKER and not self.acked and ctx.tick - self.joined[-1][0] > self._ticks(ctx, "join"):
+        if self._overdue(ctx) > self._ticks(ctx, "recruit"):
             self.role, self.chain, self.parent, self.child, self.depth = FREE, None, None, None, None
             self.plan = self.path = self.s = self.plan_seen = None
             self.up, self.dn = [], []
@@ -732,6 +734,21 @@ class Relays(Behavior):
         if self.role == NETWORKER and self.child is None and self.plan and self.plan.get("pe") \
                 and self.s is not None and self.path is not None and self.s >= self.path[1][-1] - self.rcol:
             self.role = WORKER  # a temporary worker that reached the target
+
+    def _overdue(self, ctx: Context) -> int:
+        """R5's release of a recruit: the ticks it is past ``join_time`` untaken (0 or less: in time or taken).
+
+        Past ``join_time`` it withdraws for ``recruit_time``: it stays in the chain but its REL_CHAIN names no
+        child, so its child can no longer take it; then it goes back to free unless its child took it meanwhile.
+        A child takes a recruit on a REL_CHAIN sent a tick earlier, and its ack (its own REL_CHAIN naming the
+        recruit as parent, every tick from then on) arrives a tick later: a recruit that went free when
+        ``join_time`` ran out could be taken in that very tick, and the chain hung on a free robot until the
+        child heard it (Fig. 6 bottom, chain 11). Withdrawing for more than a tick lets a lost ack be made up by
+        the next ones.
+        """
+        if self.role != NETWORKER or self.acked:
+            return 0
+        return ctx.tick - self.joined[-1][0] - self._ticks(ctx, "join")
 
     def _free(self, j: int) -> bool:
         """Robot j's last status said free: no chain robot, so never a parent to splice to (R6).
@@ -1026,7 +1043,8 @@ class Relays(Behavior):
     def _broadcast(self, ctx: Context) -> None:
         if self.role == ROOT:
             self.up, self.dn = [ctx.id], [ctx.id]
-        BODIES.broadcast(ctx, Chain(self.role, self.chain, self.parent, self.child, self.depth, self.up[: self.k + 1],
+        child = None if self._overdue(ctx) > 0 else self.child  # R5: a recruit about to go free withdraws
+        BODIES.broadcast(ctx, Chain(self.role, self.chain, self.parent, child, self.depth, self.up[: self.k + 1],
                                     self.dn[: self.k + 1], self.done, 1 if self.child is None else self.cnt))
 
     # ------------------------------------------------------------------ report

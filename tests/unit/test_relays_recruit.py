@@ -12,7 +12,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from protocols.relays.behavior import FREE, JOIN, NEED, NETWORKER, TASK, WORKER, Relays
-from protocols.relays.messages import BODIES, CHAIN, Need
+from protocols.relays.messages import BODIES, CHAIN, Join, Need
 
 DT = 0.2
 
@@ -214,6 +214,53 @@ def test_the_call_is_repeated_while_the_winner_is_still_heard_free():
     mid.heard[5] = (ctx.tick - 1, chain_body({"r": NETWORKER, "c": 0, "p": 1, "ch": 2}))  # it joined
     mid._recruit(ctx)
     assert [s[1] for s in ctx.sent] == [JOIN, JOIN]
+
+
+def _release_race(arrives: int, lost: tuple = ()) -> list[tuple[int, str, int | None]]:
+    """Recruit 6 joins at tick 100 between the root and the base 1; 1 first senses it within d_s at ``arrives``.
+
+    REL_CHAIN frames reach the other robot one tick after they are sent, as in lockstep; the base's frames sent
+    at the ticks ``lost`` do not reach the recruit. Returns, tick by tick, the recruit's role and the base's parent.
+    """
+    recruit = Relays([[8.0, 0.0]], root=0)
+    recruit.rel = SimpleNamespace(peek=lambda key: None, entry=lambda key: None)  # no plan yet
+    rctx = Ctx(6, tick=100, position=(-0.3, -0.3))
+    recruit._on_join(rctx, Join(0, 0, 1, "1:1"))
+    base, bctx = robot(1, hears_free=False, tick=100)
+    said = {}  # what each robot broadcast at the tick before
+    seen = []
+    for t in range(101, 140):
+        rctx.tick = bctx.tick = t
+        base.sensed[6] = np.array([0.3, 0.0]) if t >= arrives else np.array([-0.3, -0.3])  # 1.1 m / 1.73 m
+        if said:
+            base._on_chain(bctx, 6, chain_body(said[6]))
+            if t - 1 not in lost:
+                recruit._on_chain(rctx, 1, chain_body(said[1]))
+        recruit._links(rctx)
+        recruit._broadcast(rctx)
+        base._broadcast(bctx)
+        said = {6: rctx.cast[-1][1], 1: bctx.cast[-1][1]}
+        seen.append((t, recruit.role, base.parent))
+    return seen
+
+
+def test_a_recruit_taken_as_its_join_time_runs_out_is_never_a_free_parent():
+    """R5: the base takes the recruit in the tick its ``join_time`` (25 ticks) runs out; the ack comes a tick later.
+
+    Before the rule the recruit went free in that very tick, and the base kept a free robot as its parent until it
+    heard it (Fig. 6 bottom, chain 11: the chain cut for 2 ticks). Now the recruit first withdraws (names no child)
+    for ``recruit_time`` (5 ticks) and hears the ack, or a later one when the first are lost.
+    """
+    late = 100 + 25 + 1  # the first tick past join_time
+    for lost in ((), (late, late + 1)):
+        seen = _release_race(arrives=late, lost=lost)
+        assert not [(t, role) for t, role, parent in seen if parent == 6 and role == FREE]
+        assert seen[-1][1:] == (NETWORKER, 6)  # taken, and it stays
+    # a tick later the recruit names no child any more: it is not taken, goes free after 5 ticks, the base keeps
+    # the root
+    seen = _release_race(arrives=late + 1)
+    assert all(parent == 0 for _, _, parent in seen)
+    assert [t for t, role, _ in seen if role == FREE][0] == late + 5
 
 
 def _airborne_robot(rid: int, airborne: float) -> tuple[Relays, Ctx]:
