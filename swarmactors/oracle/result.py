@@ -206,6 +206,13 @@ class Result:
 
         return int(run_exit(self.data)[0])
 
+    def verdicts(self) -> dict[str, bool]:
+        """Check name -> passed; a check with several outcomes (one per chain, per robot, …) passes if all do."""
+        out: dict[str, bool] = {}
+        for c in self.checks:
+            out[c["name"]] = out.get(c["name"], True) and bool(c["passed"])
+        return out
+
     def check(self, name: str) -> dict:
         for c in self.checks:
             if c["name"] == name:

@@ -490,7 +490,9 @@ def trial_cells(sc: dict, out_dir: Path, run_id: str, keep: str) -> tuple[dict |
     for beh, metrics in sorted(data["metrics"].items()):
         for k, v in _flatten(metrics):
             row[f"metric.{beh}.{k}"] = cell(v)
-    for c in data["checks"]:
+    for c in data["checks"]:  # a check with several outcomes: fail if any fails, with the first failure's value
+        if row.get(f"check.{c['name']}") == "fail":
+            continue
         row[f"check.{c['name']}"] = "pass" if c["passed"] else "fail"
         row[f"check.{c['name']}.value"] = cell(c["value"])
     failed = row["passed"] == "false" or row["crashed"] != "0"

@@ -27,3 +27,13 @@ def test_a_failed_returned_check_counts_as_a_failed_trial(tmp_path, monkeypatch)
     by_x = {r.split(",")[0]: dict(zip(header, r.split(","), strict=True)) for r in rows[1:]}
     assert by_x["1"]["passed"] == "true" and by_x["1"]["check.demo.small"] == "pass"
     assert by_x["2"]["passed"] == "false" and by_x["2"]["check.demo.small"] == "fail"
+
+
+def test_a_check_with_several_outcomes_fails_if_any_outcome_fails():
+    # One outcome per chain (relays.reached) or per robot: a trial's {name: passed} must not keep only the last.
+    from swarmactors.oracle.result import Result
+
+    outcomes = [{"name": "relays.reached", "passed": True}, {"name": "relays.reached", "passed": False},
+                {"name": "relays.reached", "passed": True}, {"name": "relays.links_within_db", "passed": True}]
+    assert Result({"checks": outcomes}).verdicts() == {"relays.reached": False, "relays.links_within_db": True}
+    assert Result({"checks": []}).verdicts() == {}

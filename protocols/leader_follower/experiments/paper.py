@@ -72,7 +72,7 @@ def numbers(r, label: str) -> dict:
            "switches": [(round(t * dt, 2), i, a, b) for t, i, a, b in switches],
            "target_margin_low": round(m["target_low"], 4), "target_margin_high": round(m["target_high"], 4),
            "body_margin": round(m["body"], 4), "max_speed_over_U": round(top, 4),
-           "checks": {c["name"]: c["passed"] for c in r.checks}}
+           "checks": r.verdicts()}
     return out
 
 

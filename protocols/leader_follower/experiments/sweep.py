@@ -41,7 +41,7 @@ def one(sc: dict) -> dict:
         m = oracle.margins(ru)
         v = oracle.violations(ru)
     col = (r["world"].get("collisions") or {}).get("robot_robot", 0)
-    checks = {c["name"]: c["passed"] for c in r.checks}
+    checks = r.verdicts()
     return {"collisions": col, "assumptions_held": not v, "body_margin": round(m["body"], 4),
             "guarantees": all(checks[k] for k in ("leader_follower.spanning_tree", "leader_follower.target_distance",
                                                   "leader_follower.speed", "leader_follower.sigma"))}

@@ -107,7 +107,7 @@ def _run(job: dict) -> dict:
                "recovery_s": healed[0]["value"] if healed else None,
                "back_s": _back(healed[0]["detail"]) if healed else None,
                "chain": _chain(reports), "dt": dt, **_who(reports, dt),
-               "checks": {c["name"]: c["passed"] for c in r.checks}}  # the sweep counts the failed ones
+               "checks": r.verdicts()}  # the sweep counts the failed ones
     at = 1 * dt  # the root writes the targets at tick 1
     if out["all_reached"] and out["last_reached_s"] is not None and longest:
         out["time_factor"] = (out["last_reached_s"] - at) / (longest / 0.5)

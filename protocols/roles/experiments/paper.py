@@ -176,7 +176,7 @@ def main_job(n: int, seed: int, ticks: int, params: dict | None = None) -> dict:
         "overheard_per_tick": float(np.mean([result.frame_counts(rid).get("overheard", 0) / ticks for rid in reps])),
         "aat_saving": m["aat_saving"],
         "repeaters_max": max(sum(1 for r in reps.values() if r["role"] == "repeater"), 0),
-        "checks": {c["name"]: c["passed"] for c in result.checks},
+        "checks": result.verdicts(),
         "wall_s": result["wall_s"],
     }
     shutil.rmtree(result.path.parent, ignore_errors=True)
