@@ -31,6 +31,8 @@ Rules:
   free robots stay within d_s of the root and step aside from chain robots.
 * R5 recruiting - with WP prediction every stretched chain robot (link to its parent at d_s - v_max dt,
   ``_stretched``) with free neighbours recruits; without it, only a robot holding a REL_NEED from the head.
+  No robot recruits while its chain's worker is at its target (``ok``, propagated down); a worker pushed off
+  its target after reaching it still counts as there while its own parent link is not stretched (``_keeps_done``).
   When the head sends it is the parameter ``ask``: "stretched" (default; its own parent link at
   d_s - v_max dt; it then stands still until the recruit's slack arrives) or "plan" (Sec. IV: "the worker
   determines the number of links required to reach the target": while the chain holds fewer than
@@ -168,7 +170,7 @@ class Relays(Behavior):
         self.role, self.chain, self.parent, self.child, self.depth = FREE, None, None, None, None
         self.up: list[int] = []
         self.dn: list[int] = []
-        self.done = False  # the chain's worker is at its target now (propagated down, not sticky)
+        self.done = False  # the chain's worker is at its target now, or was and is not held off it (propagated down)
         self.heard: dict[int, tuple[int, Chain]] = {}  # neighbour -> (tick, last REL_CHAIN body)
         self.sensed: dict[int, np.ndarray] = {}
         self.seen: tuple | None = None  # (tick, sensed, own position) of the last tick, for the velocities
@@ -976,6 +978,8 @@ class Relays(Behavior):
                 self.done = True
                 u = np.zeros(len(x))
             else:
+                if self._keeps_done(ctx):
+                    self.done = True  # R5: jostled off its target, not held there by its link: no recruit needed
                 ahead = self.lookahead
                 if self.kind == "ground" and self.plan.get("g", math.inf) < cum[-1] - 1e-3:
                     ahead = min(ahead, self.plan["g"] - self.s)  # a ground robot stops where pi leaves the ground
@@ -1005,6 +1009,22 @@ class Relays(Behavior):
             self.head_stopped += float(np.linalg.norm(u)) < 0.1 * self.vmax
         ctx.move([float(v) for v in u] if len(u) == 3 else
                  [float(u[0]), float(u[1])] + ([0.0] if len(ctx.position) == 3 else []))
+
+    def _keeps_done(self, ctx: Context) -> bool:
+        """R5: whether a worker pushed off its target after reaching it still counts its chain as at its target.
+
+        It does while its parent link is not stretched. Once the worker stands on its target, the networkers
+        whose parent links have slack keep moving forward along pi (Eq. 6-7) and crowd its end; the collision
+        avoidance (Eq. 8) then pushes the worker 0.1-0.5 m off its target (the test is r_col/2). No recruit can
+        bring it back: its own link is slack, and Eq. 6 takes it back by itself once there is room. Before this
+        rule ``done`` dropped whenever it was pushed off, the chain's links at d_s near the root counted as
+        stretched, and with WP the chain recruited again (Fig. 6, T = 4 with the C, trials 9 and 27: chains that
+        had reached their targets took the last free robots, up to 13 robots for a path of n = 8 links, and
+        another chain's head stood still at d_s for 36-50 s). A worker held off its target by a stretched parent
+        link still drops ``done``, so that its chain recruits.
+        """
+        return (self.role == WORKER and self.child is None and self.reached_at is not None
+                and self.parent is not None and not self.parent_lost and not self._stretched(ctx))
 
     def _clear_of_walls(self, ctx: Context, x: np.ndarray, u: np.ndarray, fix) -> np.ndarray:
         """Keep the body (radius r_col/2) off the known obstacles.

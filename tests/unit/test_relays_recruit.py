@@ -11,6 +11,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from protocols.relays import motion
 from protocols.relays.behavior import FREE, JOIN, NEED, NETWORKER, TASK, WORKER, Relays
 from protocols.relays.messages import BODIES, CHAIN, Join, Need
 
@@ -372,3 +373,42 @@ def test_ask_plan_the_recruiter_holding_the_request_still_waits_until_it_is_stre
 def test_ask_must_be_a_known_value():
     assert Relays.validate({"targets": [[8.0, 0.0]], "ask": "plan"}) is None
     assert "ask = 'early'" in Relays.validate({"targets": [[8.0, 0.0]], "ask": "early"})
+
+
+def _worker_off_target(parent_at, reached_at=150) -> tuple[Relays, Ctx]:
+    """Worker 3 of chain 0 (target (4.4, 0)), pushed 0.3 m off its target; its parent 2 at ``parent_at``."""
+    w = Relays([[4.4, 0.0]], root=0, wp=True)
+    w.role, w.chain, w.parent, w.child, w.depth = WORKER, 0, 2, None, 3
+    w.plan = {"pe": True, "pi": [[0.0, 0.0], [4.4, 0.0]], "pig": [[0.0, 0.0], [4.4, 0.0]], "n": 4}
+    w.path = motion.arc_points([[0.0, 0.0], [4.4, 0.0]])
+    w.reached_at, w.root_pos = reached_at, np.array([0.0, 0.0])
+    w.sensed = {2: np.array(parent_at), 0: np.array([0.0, 0.0])}
+    w.heard[2] = (100, chain_body({"r": NETWORKER, "c": 0, "p": 1, "ch": 3, "d": 2}))
+    ctx = Ctx(3, 100, (4.4, 0.3))
+    ctx.map, ctx.rng, ctx.moved = None, np.random.default_rng(0), []
+    ctx.move = ctx.moved.append
+    return w, ctx
+
+
+def test_a_worker_pushed_off_its_target_by_its_own_chain_keeps_it_at_its_target():
+    """Fig. 6 T = 4 C WP trials 9 and 27: networkers crowd the reached target and push the worker 0.1-0.5 m off it.
+
+    Its parent link is slack, so no recruit can help: the chain stays ``ok`` and its stretched robots near the
+    root do not recruit (before, they took the last free robots from a chain still on its way).
+    """
+    w, ctx = _worker_off_target((3.9, 0.0))  # parent 0.58 m away: slack
+    w._move(ctx)
+    assert w.done
+    below, bctx = robot(2, hears_free=True, wp=True)  # stretched, hears a free robot, WP
+    below._on_chain(bctx, 3, chain_body({"r": WORKER, "c": 0, "p": 2, "ch": None, "d": 3, "ok": w.done}))
+    below._recruit(bctx)
+    assert not below.pending and not bctx.cast
+
+
+def test_a_worker_held_off_its_target_by_a_stretched_link_or_never_there_is_not_done():
+    w, ctx = _worker_off_target((3.0, 0.3))  # parent 1.4 m away: stretched, a recruit gives it slack
+    w._move(ctx)
+    assert not w.done
+    w, ctx = _worker_off_target((3.9, 0.0), reached_at=None)  # on its way: not at its target yet
+    w._move(ctx)
+    assert not w.done
