@@ -75,7 +75,7 @@ CASE_PINS = {
     "stigmergy/two-components": "70cfb08999bd23fc94d4d7f95eec164c",
     "stigmergy/rgg-20-s2-loss-0.2-anti-entropy": "3ea523cc308013f80b91cb73892e1206",
     "relays/open-10": "32f24c5853fd22b24c5078b60643ef87",  # issue 16: RVO (Eq. 8), recruiting per Sec. IV
-    "relays/open-12-kill-3": "ccd6b22e68c5bd89e17aad833a4733a7",  # issue 16: RVO, Sec. IV recruiting, kills 2 5 1
+    "relays/open-12-kill-3": "a275783d244d1cb7449503cf712cc343",  # R5: a jostled worker keeps ok (slot at 355, not 353)
 }
 
 
