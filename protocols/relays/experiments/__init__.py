@@ -16,14 +16,22 @@ def replot_fig6(results, out_dir):
 
 
 def replot_fig7(results, out_dir):
-    """Fig. 7 re-drawn from the saved sweep rows (``results``), without the sweep's printed summary."""
+    """Fig. 7 re-drawn from the saved sweep rows (``results``), without the sweep's printed summary.
+
+    Arena 1 (ground only) comes from ``fig7_arena1_35.csv`` beside them when it is there: its 35 runs a cell
+    replace the reduced rows of that arena (whose trials 0-2 they repeat).
+    """
     from pathlib import Path
 
     from protocols.relays.experiments.fig7 import plot
     from swarmactors.tools.sweep import returned_values
 
+    rows = returned_values(results)
+    arena1 = Path(results).with_name("fig7_arena1_35.csv")
+    if arena1.exists():
+        rows = [r for r in rows if (r["arena"], r.get("hetero", 0)) != (1, 0)] + returned_values(arena1)
     path = Path(out_dir) / "relays_fig7.png"
-    plot(returned_values(results), path)
+    plot(rows, path)
     return [path]
 
 

@@ -217,7 +217,7 @@ def plot(rows: list[dict], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    fig, axes = plt.subplots(1, 2, figsize=(13, 4))
     ax = axes[0]
     for arena, hetero in sorted({(r["arena"], r.get("hetero", 0)) for r in rows}):
         for k, chains in enumerate(sorted({r["chains"] for r in rows})):
@@ -233,21 +233,28 @@ def plot(rows: list[dict], path: Path) -> None:
     ax.set_title("Fig. 7 top, reduced (ours)")
     ax.legend(fontsize=8)
     ax = axes[1]
-    for chains in sorted({r["chains"] for r in rows}):
-        rs = [r for r in rows if r["arena"] == 1 and r["chains"] == chains and not r.get("hetero")]
+    arena1 = [r for r in rows if r["arena"] == 1 and not r.get("hetero")]
+    top = max((r["build_s"] for r in arena1 if r.get("build_s")), default=1.0) * 1.04
+    for k, chains in enumerate(sorted({r["chains"] for r in arena1})):
+        rs = [r for r in arena1 if r["chains"] == chains]
         if len({r["F"] for r in rs}) < 2:
             continue
+        dx = (k - 1) * 0.012  # the cells of C_n = 1, 2, 3 side by side
         built = [r for r in rs if r.get("build_s")]
-        ax.scatter([r["F"] for r in built], [r["build_s"] for r in built], label=f"arena 1, C_n = {chains}")
-        never = [r for r in rs if not r.get("build_s")]
-        if never:
-            top = max(r["build_s"] for r in built) * 1.02 if built else 1.0
-            ax.scatter([r["F"] for r in never], [top] * len(never), marker="x", color="r",
-                       label=f"not built by the end ({never[0]['ticks']} s)")
+        ax.scatter([r["F"] + dx for r in built], [r["build_s"] for r in built], s=12, color=f"C{k}",
+                   label=f"arena 1, C_n = {chains}")
+        for f in sorted({r["F"] for r in rs}):  # a cross per cell with runs that never built, and how many
+            never = [r for r in rs if r["F"] == f and not r.get("build_s")]
+            if never:
+                ax.scatter([f + dx], [top], marker="x", color=f"C{k}")
+                ax.annotate(str(len(never)), (f + dx, top), textcoords="offset points", xytext=(0, 5 + 8 * k),
+                            ha="center", fontsize=7, color=f"C{k}")
+    ax.scatter([], [], marker="x", color="0.4", label="runs not built by the end (count above)")
+    ax.set_ylim(top=top * 1.1)
     ax.set_xlabel("failure bound F")
     ax.set_ylabel("time to build (s)")
-    ax.set_title("Fig. 7 bottom, reduced (ours)")
-    ax.legend(fontsize=8)
+    ax.set_title("Fig. 7 bottom, arena 1 (ours)")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
